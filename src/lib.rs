@@ -1,0 +1,22 @@
+//! wellmesh: closed ore-body surfaces from well logs and drill holes.
+//!
+//! The pipeline, one room per stage (see `docs/architecture.md`):
+//!
+//! ```text
+//! wells  -> SampleSet (points relative to a local origin, values, "don't know")
+//! tet    -> TetMesh   (exact 3D Delaunay of the distinct sample points)
+//! dmt    -> Shell     (Dual Marching Tetrahedra: closed, oriented bodies + measures)
+//! export -> GLB, summary JSON and other formats
+//! ```
+//!
+//! [`contour::run`] is the one function that the CLI, the service workers and the
+//! tests all call. Geometry rooms (`wells`, `tet`, `dmt`, `export`) know nothing of
+//! HTTP, async runtimes or databases.
+#![forbid(unsafe_code)]
+
+pub mod contour;
+pub mod dmt;
+pub mod export;
+pub mod progress;
+pub mod tet;
+pub mod wells;

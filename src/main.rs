@@ -1,0 +1,6 @@
+//! The `wellmesh` command line.
+#![forbid(unsafe_code)]
+
+fn main() {
+    println!("wellmesh");
+}
