@@ -1,6 +1,40 @@
-//! The `wellmesh` command line.
+//! The `wellmesh` command line: contour wells into ore bodies, tetrahedralize points,
+//! inspect inputs, and run the service.
 #![forbid(unsafe_code)]
 
-fn main() {
-    println!("wellmesh");
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod cli;
+
+/// Closed ore-body surfaces from well logs and drill holes.
+#[derive(Debug, Parser)]
+#[command(name = "wellmesh", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Contour samples into closed ore bodies (GLB + summary JSON).
+    Contour(cli::contour::Args),
+    /// Delaunay-tetrahedralize a point file and print `points N tets T seconds S`.
+    Tetrahedralize(cli::tetrahedralize::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let outcome = match cli.command {
+        Command::Contour(args) => cli::contour::run(args),
+        Command::Tetrahedralize(args) => cli::tetrahedralize::run(args),
+    };
+    match outcome {
+        Ok(code) => code,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            ExitCode::from(cli::EXIT_FAILURE)
+        }
+    }
 }

@@ -52,3 +52,41 @@ pub struct SampleSet {
     pub well_of: Vec<u32>,
     pub report: ReadReport,
 }
+
+/// One input file held in memory: its name (for error messages) and its bytes.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct InputFile {
+    pub name: String,
+    pub bytes: Vec<u8>,
+}
+
+/// Everything a caller (CLI, service, test) can hand to [`Input::load`]. Files are in
+/// memory so the service and the CLI share one code path; the CLI reads paths into
+/// `InputFile`s. Exactly one kind of source (samples CSV, wells JSON, drill-hole tables,
+/// LAS) is expected per load.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Input {
+    /// Samples CSV: `well,x,y,z,value` (aliases in design.md).
+    pub samples_csv: Option<InputFile>,
+    /// Wells JSON (design.md).
+    pub wells_json: Option<InputFile>,
+    /// Drill-hole tables: collar, survey, interval CSVs.
+    pub collars_csv: Option<InputFile>,
+    pub surveys_csv: Option<InputFile>,
+    pub intervals_csv: Option<InputFile>,
+    /// LAS 2.0 files and the table placing each well (name -> x, y, elevation).
+    pub las: Vec<InputFile>,
+    pub locations_csv: Option<InputFile>,
+    /// Column (interval variable or LAS curve) holding the value to contour.
+    pub variable: Option<String>,
+    /// Categorical codes that count as inside (value 1); others are 0.
+    pub inside_codes: Vec<String>,
+    /// Composite length (input units); `None` uses interval midpoints.
+    pub composite_length: Option<f64>,
+    /// `Some(true)`: dips below horizontal are negative numbers; `None`: detect.
+    pub dip_down_negative: Option<bool>,
+    /// CRS to report when the input does not carry one.
+    pub crs: Option<String>,
+    /// Horizontal length unit ("m" or "ft"); `None`: metres unless the input says otherwise.
+    pub unit: Option<String>,
+}

@@ -1,0 +1,9 @@
+//! `wellmesh tetrahedralize`.
+use std::process::ExitCode;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<ExitCode> {
+    anyhow::bail!("tetrahedralize is being built")
+}
