@@ -77,3 +77,26 @@ pub struct ContourResult {
     /// The samples as read, for exporters that draw wells.
     pub samples: SampleSet,
 }
+
+/// Why a contouring job failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ContourError {
+    #[error("no thresholds given")]
+    NoThresholds,
+    #[error("threshold {0} is not a finite number")]
+    BadThreshold(f64),
+    #[error("cancelled")]
+    Cancelled,
+    #[error("{0}")]
+    Input(String),
+}
+
+/// Runs the whole pipeline on one request. Called on a CPU thread (never on an async
+/// runtime's threads); reports stages to `progress` and stops when it is cancelled.
+pub fn run(
+    request: &ContourRequest,
+    progress: &dyn crate::progress::Progress,
+) -> Result<ContourResult, ContourError> {
+    let _ = (request, progress);
+    todo!("contour::run is being built on main")
+}

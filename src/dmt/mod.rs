@@ -84,3 +84,39 @@ pub struct Shell {
     pub counts: ShellCounts,
     pub quality: Quality,
 }
+
+/// Default lattice resolution `N` of the curvature placement.
+pub const DEFAULT_CURVATURE_LATTICE: u32 = 7;
+
+impl std::str::FromStr for Method {
+    type Err = String;
+
+    /// Parses `curvature`, `ibc`, `coi`, `midpoint` or `mt` (case-insensitive).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "curvature" => Ok(Method::Dmt(Placement::Curvature {
+                lattice: DEFAULT_CURVATURE_LATTICE,
+            })),
+            "ibc" => Ok(Method::Dmt(Placement::Ibc)),
+            "coi" => Ok(Method::Dmt(Placement::Coi)),
+            "midpoint" => Ok(Method::Dmt(Placement::Midpoint)),
+            "mt" => Ok(Method::MarchingTetrahedra),
+            other => Err(format!(
+                "unknown method {other:?}: expected curvature, ibc, coi, midpoint or mt"
+            )),
+        }
+    }
+}
+
+impl Method {
+    /// The name used on the command line and in the summary.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Method::Dmt(Placement::Curvature { .. }) => "curvature",
+            Method::Dmt(Placement::Ibc) => "ibc",
+            Method::Dmt(Placement::Coi) => "coi",
+            Method::Dmt(Placement::Midpoint) => "midpoint",
+            Method::MarchingTetrahedra => "mt",
+        }
+    }
+}
