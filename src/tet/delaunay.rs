@@ -35,13 +35,26 @@ pub fn build(mut points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh,
     if let Some(index) = points.iter().position(|p| !p.is_finite()) {
         return Err(TetError::NonFinite { index });
     }
-    let vertex_of_input = merge_duplicates(&mut points);
+    let mut vertex_of_input = merge_duplicates(&mut points);
     let duplicates_merged = vertex_of_input.len() - points.len();
     if points.len() < 4 {
         return Err(TetError::TooFewPoints {
             distinct: points.len(),
         });
     }
+    // Vertices are numbered in insertion order, so the points the construction touches
+    // one after the other are neighbours in memory too.
+    let order = brio_hilbert_order(&points);
+    let mut rank = vec![0u32; points.len()];
+    for (k, &v) in order.iter().enumerate() {
+        rank[v as usize] = k as u32;
+    }
+    points = order.iter().map(|&v| points[v as usize]).collect();
+    drop(order);
+    for v in &mut vertex_of_input {
+        *v = rank[*v as usize];
+    }
+    drop(rank);
     let shift = exact_shift(&points);
     for p in &mut points {
         *p -= shift;
@@ -163,9 +176,7 @@ impl<'a> Builder<'a> {
         pts: &'a [DVec3],
         progress: &dyn Progress,
     ) -> Result<(Vec<[u32; 4]>, Vec<[u32; 4]>), TetError> {
-        let mut order = brio_hilbert_order(pts);
-        let first = initial_simplex(pts, &order)?;
-        order.retain(|v| !first.contains(v));
+        let first = initial_simplex(pts)?;
         // Uniform points give ~6.7 tetrahedra per point; pages are touched only when used.
         let estimate = pts.len().saturating_mul(7) + 64;
         let mut b = Builder {
@@ -184,17 +195,18 @@ impl<'a> Builder<'a> {
             rng: 0x2545_F491_4F6C_DD1D,
         };
         b.start(first);
-        let total = order.len();
-        for (k, &v) in order.iter().enumerate() {
-            if k % CHECK_EVERY == 0 {
+        let total = pts.len();
+        for v in 0..total as u32 {
+            if v as usize % CHECK_EVERY == 0 {
                 if progress.is_cancelled() {
                     return Err(TetError::Cancelled);
                 }
-                progress.report("tetrahedralize", k as f64 / total as f64);
+                progress.report("tetrahedralize", v as f64 / total as f64);
             }
-            b.insert(v);
+            if !first.contains(&v) {
+                b.insert(v);
+            }
         }
-        drop(order);
         progress.report("tetrahedralize", 1.0);
         Ok(b.finish())
     }
@@ -478,20 +490,16 @@ impl<'a> Builder<'a> {
     }
 }
 
-/// Four affinely independent vertices, taken in insertion order so the first tetrahedron
-/// is small and central to the first BRIO round.
-fn initial_simplex(pts: &[DVec3], order: &[u32]) -> Result<[u32; 4], TetError> {
+/// Four affinely independent vertices, the first ones in insertion order (vertex ids), so
+/// the first tetrahedron comes from the first BRIO round.
+fn initial_simplex(pts: &[DVec3]) -> Result<[u32; 4], TetError> {
     let p = |v: u32| pts[v as usize];
-    let a = order[0];
-    let b = order[1];
-    let c = order[2..]
-        .iter()
-        .copied()
+    let n = pts.len() as u32;
+    let (a, b) = (0, 1);
+    let c = (2..n)
         .find(|&c| !predicates::collinear(p(a), p(b), p(c)))
         .ok_or(TetError::AllCoplanar)?;
-    let d = order[2..]
-        .iter()
-        .copied()
+    let d = (2..n)
         .find(|&d| predicates::orient(p(a), p(b), p(c), p(d)) != Sign::Zero)
         .ok_or(TetError::AllCoplanar)?;
     Ok([a, b, c, d])

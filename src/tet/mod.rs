@@ -62,8 +62,9 @@ pub enum TetError {
 ///
 /// `points` may be at any magnitude (UTM coordinates included): predicates are exact, and
 /// an internal translation is used only where it is itself exact. Points with identical
-/// coordinates are merged (`duplicates_merged`, `vertex_of_input`); the mesh's `points` are
-/// the distinct points in order of first occurrence. Checks `progress.is_cancelled()`
+/// coordinates are merged (`duplicates_merged`); the mesh's `points` are the distinct
+/// points in spatial (Hilbert curve) order and `vertex_of_input` maps each input point to
+/// its vertex. Checks `progress.is_cancelled()`
 /// every few thousand insertions.
 ///
 /// Errors: [`TetError::NonFinite`], [`TetError::TooFewPoints`] (fewer than 4 distinct),
