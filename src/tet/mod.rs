@@ -8,6 +8,7 @@
 //! Design notes (layout, predicates, perturbation, memory) are in `docs/tet.md`.
 
 mod delaunay;
+mod exact_int;
 pub mod predicates;
 mod sort;
 mod validate;

@@ -25,6 +25,8 @@ use std::cmp::Ordering;
 use glam::DVec3;
 use robust::Coord3D;
 
+use super::exact_int;
+
 /// Sign of an exact determinant.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Sign {
@@ -85,8 +87,17 @@ pub fn orient(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Sign {
     orient_exact(a, b, c, d)
 }
 
-/// [`orient`] without the filter: `robust::orient3d` negated (its convention is the opposite).
+/// [`orient`] without the filter: fixed-width integers when the coordinates share a
+/// binary grid, else `robust::orient3d` negated (its convention is the opposite).
 pub fn orient_exact(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Sign {
+    match exact_int::orient_sign(a, b, c, d) {
+        Some(s) => Sign::of(f64::from(s)),
+        None => orient_robust(a, b, c, d),
+    }
+}
+
+/// [`orient_exact`] always through `robust` (reference for tests).
+pub fn orient_robust(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Sign {
     Sign::of(-robust::orient3d(c3(a), c3(b), c3(c), c3(d)))
 }
 
@@ -134,8 +145,17 @@ pub fn insphere(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Sign {
     insphere_exact(a, b, c, d, e)
 }
 
-/// [`insphere`] without the filter.
+/// [`insphere`] without the filter: fixed-width integers when the coordinates share a
+/// binary grid, else `robust::insphere` negated.
 pub fn insphere_exact(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Sign {
+    match exact_int::insphere_sign(a, b, c, d, e) {
+        Some(s) => Sign::of(f64::from(s)),
+        None => insphere_robust(a, b, c, d, e),
+    }
+}
+
+/// [`insphere_exact`] always through `robust` (reference for tests).
+pub fn insphere_robust(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Sign {
     Sign::of(-robust::insphere(c3(a), c3(b), c3(c), c3(d), c3(e)))
 }
 
@@ -320,6 +340,46 @@ mod tests {
             c,
             DVec3::new(2.0, 2.0, 0.0)
         ));
+    }
+
+    #[test]
+    fn integer_and_expansion_arithmetic_agree_on_ties_and_near_ties() {
+        // UTM-like jittered lattice points: many exact ties, many near ties.
+        let mut state = 0x1234_5678_9abc_def1u64;
+        let mut rnd = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let mut ties = 0;
+        for _ in 0..20_000 {
+            let mut pick = || {
+                let r = rnd();
+                let well = (r % 9) as f64;
+                // Jittered collars, vertical holes: each well keeps its own offset.
+                let jitter = (well * 0.618_033_988_749).fract() * 3.1;
+                DVec3::new(
+                    500_000.0 + (well % 3.0) * 50.0 + jitter,
+                    6_500_000.0 + (well / 3.0).floor() * 50.0 - jitter,
+                    300.0 - ((r >> 20) % 6) as f64,
+                )
+            };
+            let (a, b, c, d, e) = (pick(), pick(), pick(), pick(), pick());
+            assert_eq!(orient_exact(a, b, c, d), orient_robust(a, b, c, d));
+            let (b, c) = if orient_exact(a, b, c, d) == Sign::Negative {
+                (c, b)
+            } else {
+                (b, c)
+            };
+            let s = insphere_exact(a, b, c, d, e);
+            assert_eq!(s, insphere_robust(a, b, c, d, e));
+            ties += usize::from(s == Sign::Zero && orient_exact(a, b, c, d) != Sign::Zero);
+        }
+        assert!(ties > 100, "the sample must exercise exact ties ({ties})");
+        // Coordinates too far apart for the integer path still get exact answers.
+        let (a, b, c, d) = (DVec3::ZERO, DVec3::X * 1e30, DVec3::Y * 1e-30, DVec3::Z);
+        assert_eq!(orient_exact(a, b, c, d), orient_robust(a, b, c, d));
     }
 
     #[test]
