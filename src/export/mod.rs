@@ -2,3 +2,4 @@
 //!
 //! Invariant: exporters write exactly the triangles of `ContourResult::shells`, so any
 //! reader recomputes the summary's volumes and areas.
+pub mod tet_vtu;
