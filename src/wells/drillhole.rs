@@ -117,14 +117,16 @@ pub(crate) fn resolve_intervals(
 /// sample in each gap), or composites of `length` from the first `from`, each the
 /// length-weighted mean of the known values it covers, unknown when less than half of it
 /// is covered by known values.
+///
+/// `Err(n)`: the hole would need `n` composites, more than [`MAX_COMPOSITES_PER_HOLE`].
 pub(crate) fn interval_samples(
     intervals: &[Interval],
     composite: Option<f64>,
     report: &mut ReadReport,
-) -> Vec<(f64, Option<f64>)> {
+) -> Result<Vec<(f64, Option<f64>)>, f64> {
     let mut out = Vec::new();
     if intervals.is_empty() {
-        return out;
+        return Ok(out);
     }
     match composite {
         None => {
@@ -147,7 +149,11 @@ pub(crate) fn interval_samples(
             }
             let start = intervals[0].from;
             let end = intervals.iter().map(|iv| iv.to).fold(start, f64::max);
-            let count = ((end - start) / length).ceil().max(1.0) as usize;
+            let windows = ((end - start) / length).ceil().max(1.0);
+            if windows.is_nan() || windows > MAX_COMPOSITES_PER_HOLE {
+                return Err(windows);
+            }
+            let count = windows as usize;
             let mut first = 0usize;
             for k in 0..count {
                 let a = start + k as f64 * length;
@@ -176,7 +182,21 @@ pub(crate) fn interval_samples(
             }
         }
     }
-    out
+    Ok(out)
+}
+
+/// More composites than this in one hole means the composite length is far too small for
+/// the hole (or a depth is absurd): an error rather than an endless loop.
+pub(crate) const MAX_COMPOSITES_PER_HOLE: f64 = 1.0e6;
+
+/// The error for [`interval_samples`] refusing to composite.
+pub(crate) fn too_many_composites(file: &str, hole: &str, windows: f64) -> WellsError {
+    WellsError::Invalid {
+        file: file.to_owned(),
+        message: format!(
+            "hole '{hole}' would need {windows:.0} composites (more than {MAX_COMPOSITES_PER_HOLE}); choose a longer --composite length"
+        ),
+    }
 }
 
 /// One collar row.
@@ -536,7 +556,8 @@ pub(crate) fn read_tables(input: &Input, _unit: Unit) -> Result<Holes, WellsErro
             &mut report,
             &mut issues,
         );
-        let samples = interval_samples(&intervals, input.composite_length, &mut report);
+        let samples = interval_samples(&intervals, input.composite_length, &mut report)
+            .map_err(|n| too_many_composites(&table.file, &collar.id, n))?;
         let deepest = intervals.iter().map(|iv| iv.to).fold(0.0, f64::max);
         let hole_length = collar.length.unwrap_or(deepest).max(deepest);
 
@@ -601,7 +622,7 @@ pub(crate) fn read_tables(input: &Input, _unit: Unit) -> Result<Holes, WellsErro
     }
     if beyond_end > 0 {
         report.warnings.push(format!(
-            "{survey_name}: {beyond_end} survey stations lie past the first station beyond the end of their hole (end markers such as 90000): ignored"
+            "{survey_name}: {beyond_end} survey stations lie below the first station past the end of their hole (collar depth or deepest interval), e.g. end markers such as 90000: not used"
         ));
     }
     if !unsurveyed.is_empty() && input.surveys_csv.is_some() {
@@ -686,12 +707,12 @@ mod tests {
     fn composites_are_length_weighted_and_gaps_unknown() {
         let mut report = ReadReport::default();
         let ivs = [iv(1, 0.0, 1.0, Some(1.0)), iv(2, 1.0, 4.0, Some(3.0))];
-        let s = interval_samples(&ivs, Some(2.0), &mut report);
+        let s = interval_samples(&ivs, Some(2.0), &mut report).unwrap();
         assert_eq!(s.len(), 2);
         assert_eq!(s[0], (1.0, Some(2.0)));
         assert_eq!(s[1], (3.0, Some(3.0)));
         let gap = [iv(1, 0.0, 1.0, Some(1.0)), iv(2, 3.0, 4.0, Some(3.0))];
-        let s = interval_samples(&gap, None, &mut report);
+        let s = interval_samples(&gap, None, &mut report).unwrap();
         assert_eq!(s, vec![(0.5, Some(1.0)), (2.0, None), (3.5, Some(3.0))]);
         assert_eq!(report.gaps, 1);
     }

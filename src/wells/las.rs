@@ -650,7 +650,8 @@ pub(crate) fn read_las_wells(input: &Input, unit: Unit) -> Result<Holes, WellsEr
             });
         }
         let intervals = resolve_intervals(&id, intervals, &mut report, &mut issues);
-        let samples = interval_samples(&intervals, input.composite_length, &mut report);
+        let samples = interval_samples(&intervals, input.composite_length, &mut report)
+            .map_err(|n| super::drillhole::too_many_composites(&file.name, &id, n))?;
         let collar = DVec3::new(x, y, elevation);
         let bottom = samples.iter().map(|s| s.0).fold(0.0, f64::max);
         holes.push(HoleSamples {
