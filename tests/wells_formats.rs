@@ -243,7 +243,7 @@ fn the_synthetic_copper_wells_are_thirteen_wells_of_nine_to_43_zero_one_samples(
     }
     let s = set.summary();
     assert!(s.binary);
-    assert!(set.values.iter().any(|v| *v == Some(1.0)));
+    assert!(set.values.contains(&Some(1.0)));
     assert_eq!(s.unknown_values, 0);
 }
 

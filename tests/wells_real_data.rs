@@ -164,7 +164,7 @@ fn thalanga_massive_sulphide_loads_with_mixed_dip_signs_warned() {
     assert_eq!(set.report.holes_read, 5277);
     assert!(set.report.azimuths_wrapped > 0);
     assert!(warned(&set, "dip convention detected"));
-    assert!(set.values.iter().any(|v| *v == Some(1.0)));
+    assert!(set.values.contains(&Some(1.0)));
 }
 
 #[test]
@@ -184,7 +184,7 @@ fn ararangua_thirteen_vertical_holes_give_a_coal_indicator() {
     assert_eq!(set.wells.len(), 13);
     assert_eq!(set.report.unsurveyed_holes, 13);
     assert_eq!(set.points.len(), 507);
-    assert!(set.values.iter().any(|v| *v == Some(1.0)));
+    assert!(set.values.contains(&Some(1.0)));
 }
 
 #[test]
