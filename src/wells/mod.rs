@@ -289,7 +289,7 @@ impl Input {
         let holes = if let Some(file) = &self.samples_csv {
             samples::read_samples_csv(file, self, unit)?
         } else if let Some(file) = &self.wells_json {
-            samples::read_wells_json(file, unit)?
+            samples::read_wells_json(file, self, unit)?
         } else if tables {
             drillhole::read_tables(self, unit)?
         } else if !self.las.is_empty() {

@@ -132,7 +132,11 @@ fn json_number(file: &str, path: &str, v: &Value) -> Result<f64, WellsError> {
 }
 
 /// Reads the wells JSON of design.md.
-pub(crate) fn read_wells_json(file: &InputFile, _unit: Unit) -> Result<Holes, WellsError> {
+pub(crate) fn read_wells_json(
+    file: &InputFile,
+    input: &Input,
+    _unit: Unit,
+) -> Result<Holes, WellsError> {
     let name = file.name.as_str();
     let doc: Value = serde_json::from_slice(&file.bytes).map_err(|e| WellsError::BadLine {
         file: name.to_owned(),
@@ -161,8 +165,8 @@ pub(crate) fn read_wells_json(file: &InputFile, _unit: Unit) -> Result<Holes, We
         });
     }
     let rules = ValueRules {
-        below: super::BelowDetection::Half,
-        negative_is_below: false,
+        below: input.below_detection,
+        negative_is_below: input.negative_is_below_detection.unwrap_or(false),
     };
     let mut report = ReadReport {
         source: "wells_json".into(),
@@ -257,8 +261,10 @@ pub(crate) fn read_wells_json(file: &InputFile, _unit: Unit) -> Result<Holes, We
                             format!("'{t}' is not a number nor a don't-know token"),
                         )
                     })?;
-                    if let Reading::Below(_) = reading {
-                        report.below_detection += 1;
+                    match reading {
+                        Reading::Below(_) => report.below_detection += 1,
+                        Reading::Above(_) => report.above_detection += 1,
+                        _ => {}
                     }
                     rules.number(reading)
                 }
