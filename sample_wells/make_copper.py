@@ -12,7 +12,15 @@ copper_grade.csv  42 vertical wells on a jittered 7 x 6 grid at UTM coordinates,
                   ellipsoidal radius of the same ellipsoid; the shell value >= t is the
                   ellipsoid scaled by sqrt(1 - t / GRADE_PEAK).
 
-Both files use the samples CSV of the design (well,x,y,z,value); z is elevation (up).
+copper_collars.csv, copper_surveys.csv, copper_assays.csv
+                  80 inclined drill holes (collar, survey, interval tables) through the
+                  same grade field: each hole is an exact circular arc (radius 500-1500 m,
+                  dips -60 +- 8 degrees, towards azimuth 120 +- 12), surveyed every 25 m,
+                  assayed every 2 m; an interval's Cu is the grade field at its midpoint on
+                  the arc, so minimum-curvature desurvey must put every midpoint where the
+                  grade was taken.
+
+The samples files use the samples CSV of the design (well,x,y,z,value); z is elevation (up).
 """
 import math
 import os
@@ -90,6 +98,80 @@ def grade_wells(rng):
     return rows
 
 
+def grade(x, y, z):
+    return max(0.0, GRADE_PEAK * (1.0 - ellipsoid_radius2(x, y, z)))
+
+
+def drill_holes(rng):
+    """Collar, survey and assay rows of inclined holes that are exact circular arcs."""
+    collars, surveys, assays = [], [], []
+    nx, ny, spacing, length, step = 10, 8, 40.0, 300.0, 2.0
+    c, s = math.cos(math.radians(ROTATION_DEG)), math.sin(math.radians(ROTATION_DEG))
+    top = CENTRE[2] + 150.0
+    for j in range(ny):
+        for i in range(nx):
+            az = 120.0 + rng.uniform(-12, 12)
+            dip = 60.0 + rng.uniform(-8, 8)
+            ar, dr = math.radians(az), math.radians(dip)
+            t0 = (math.sin(ar) * math.cos(dr), math.cos(ar) * math.cos(dr), -math.sin(dr))
+            h = (math.sin(ar), math.cos(ar), 0.0)
+            ht = sum(a * b for a, b in zip(h, t0))
+            nh = [a - ht * b for a, b in zip(h, t0)]
+            norm = math.sqrt(sum(a * a for a in nh))
+            nh = [a / norm for a in nh]
+            side = (math.cos(ar), -math.sin(ar), 0.0)
+            phi = rng.uniform(-1.2, 1.2)
+            n = [math.cos(phi) * a + math.sin(phi) * b for a, b in zip(nh, side)]
+            radius = rng.uniform(500, 1500)
+            # Collar up-dip of the body so the hole crosses it about 150 m down.
+            u = (i - (nx - 1) / 2) * spacing + rng.uniform(-8, 8)
+            v = (j - (ny - 1) / 2) * spacing + rng.uniform(-8, 8)
+            x0 = CENTRE[0] + c * u - s * v - t0[0] / -t0[2] * 150.0
+            y0 = CENTRE[1] + s * u + c * v - t0[1] / -t0[2] * 150.0
+            z0 = top + rng.uniform(-3, 3)
+            hole = f"DH{j + 1:02d}{i + 1:02d}"
+
+            def at(depth):
+                a = depth / radius
+                p = [x0, y0, z0]
+                t = []
+                for k in range(3):
+                    p[k] += radius * math.sin(a) * t0[k] + radius * (1 - math.cos(a)) * n[k]
+                    t.append(math.cos(a) * t0[k] + math.sin(a) * n[k])
+                return p, t
+
+            collars.append((hole, x0, y0, z0, length))
+            d = 0.0
+            while d <= length:
+                _, t = at(d)
+                azimuth = math.degrees(math.atan2(t[0], t[1])) % 360.0
+                dip_down = math.degrees(math.asin(-t[2]))
+                surveys.append((hole, d, azimuth, -dip_down))
+                d += 25.0
+            d = 0.0
+            while d < length:
+                p, _ = at(d + step / 2)
+                assays.append((hole, d, d + step, round(grade(*p), 4)))
+                d += step
+    return collars, surveys, assays
+
+
+def write_tables(here, rng):
+    collars, surveys, assays = drill_holes(rng)
+    with open(os.path.join(here, "copper_collars.csv"), "w", newline="\n") as f:
+        f.write("hole_id,x,y,z,depth\n")
+        for h, x, y, z, d in collars:
+            f.write(f"{h},{x:.4f},{y:.4f},{z:.4f},{d}\n")
+    with open(os.path.join(here, "copper_surveys.csv"), "w", newline="\n") as f:
+        f.write("hole_id,depth,azimuth,dip\n")
+        for h, d, a, p in surveys:
+            f.write(f"{h},{d},{a:.9f},{p:.9f}\n")
+    with open(os.path.join(here, "copper_assays.csv"), "w", newline="\n") as f:
+        f.write("hole_id,from,to,cu\n")
+        for h, a, b, g in assays:
+            f.write(f"{h},{a},{b},{g}\n")
+
+
 def write(path, rows):
     with open(path, "w", newline="\n") as f:
         f.write("well,x,y,z,value\n")
@@ -102,6 +184,7 @@ def main():
     rng = random.Random(SEED)
     write(os.path.join(here, "copper_wells.csv"), copper_wells(rng))
     write(os.path.join(here, "copper_grade.csv"), grade_wells(rng))
+    write_tables(here, rng)
     print(f"ellipsoid volume {volume():.1f} m3")
     for t in (0.5, 1.0):
         print(f"grade shell >= {t}: {volume(math.sqrt(1 - t / GRADE_PEAK)):.1f} m3")

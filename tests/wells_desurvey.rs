@@ -195,3 +195,47 @@ fn azimuths_past_360_wrap_and_unsurveyed_holes_are_vertical() {
     let b = set.points[1] + set.origin;
     assert!((b - DVec3::new(300.0, 200.0, 45.0)).length() < 1e-9);
 }
+
+/// The grade field of `sample_wells/make_copper.py` (same constants).
+fn copper_grade(p: DVec3) -> f64 {
+    let d = p - DVec3::new(512300.0, 7021850.0, 240.0);
+    let (s, c) = 30f64.to_radians().sin_cos();
+    let u = c * d.x + s * d.y;
+    let v = -s * d.x + c * d.y;
+    let r2 = (u / 150.0).powi(2) + (v / 90.0).powi(2) + (d.z / 45.0).powi(2);
+    (2.0 * (1.0 - r2)).max(0.0)
+}
+
+#[test]
+fn shipped_curved_drill_holes_desurvey_every_assay_to_where_it_was_taken() {
+    let dir = format!("{}/sample_wells", env!("CARGO_MANIFEST_DIR"));
+    let read = |name: &str| InputFile::new(name, std::fs::read(format!("{dir}/{name}")).unwrap());
+    let set = Input::from_drillholes(
+        read("copper_collars.csv"),
+        Some(read("copper_surveys.csv")),
+        read("copper_assays.csv"),
+        Some("cu"),
+    )
+    .load()
+    .unwrap();
+    assert_eq!(set.wells.len(), 80);
+    assert_eq!(set.points.len(), 12000);
+    assert_eq!(set.report.dip_convention.as_deref(), Some("negative-down"));
+    let mut inside = 0;
+    for (p, v) in set.points.iter().zip(&set.values) {
+        let expected = copper_grade(*p + set.origin);
+        let v = v.unwrap();
+        assert!(
+            (v - expected).abs() < 1e-4,
+            "{v} vs {expected} at {}",
+            *p + set.origin
+        );
+        if v > 0.0 {
+            inside += 1;
+        }
+    }
+    assert!(
+        inside > 500,
+        "the holes cross the body ({inside} samples inside)"
+    );
+}
