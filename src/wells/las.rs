@@ -354,19 +354,26 @@ impl LasFile {
             .find(|i| i.mnemonic.eq_ignore_ascii_case(mnemonic))
     }
 
-    /// The text value of a header item; LAS 1.2 files often keep it in the description
-    /// (`WELL. WELL: name`), which is used when the data field just repeats a label.
+    /// The text value of a header item. LAS 1.2 keeps ~W values in the description
+    /// (`WELL. WELL: name`, as lasio reads them): there the description is used when it is not
+    /// empty, and a data field that is only a capitalised label (`UNIQUE WELL ID`) is no value.
     pub fn text(&self, mnemonic: &str) -> Option<String> {
         let item = self.item(mnemonic)?;
         let data = item.data.trim();
+        let description = item.description.trim();
         let old_style = self
             .version
             .as_deref()
             .is_some_and(|v| v.trim().starts_with('1'));
-        let label_like = old_style
-            && (data.is_empty() || data.chars().all(|c| c.is_ascii_uppercase() || c == ' '));
-        let value = if label_like {
-            item.description.trim()
+        let in_well = self.well.iter().any(|w| std::ptr::eq(w, item));
+        let value = if old_style && in_well {
+            if !description.is_empty() {
+                description
+            } else if data.chars().all(|c| c.is_ascii_uppercase() || c == ' ') {
+                ""
+            } else {
+                data
+            }
         } else {
             data
         };
@@ -745,5 +752,17 @@ mod tests {
         let text = SMALL.replace(" 10.5 -999.25", " 10.5 abc");
         let e = parse("w.las", text.as_bytes()).unwrap_err().to_string();
         assert!(e.contains("w.las, line 15"), "{e}");
+    }
+
+    #[test]
+    fn las_1_2_well_values_come_from_the_description() {
+        let text = SMALL.replace("VERS. 2.0", "VERS. 1.2").replace(
+            " WELL. W-1 : name",
+            " WELL. WELL: BIG OIL 1\n UWI. UNIQUE WELL ID:\n API. 15-023 :",
+        );
+        let las = parse("w.las", text.as_bytes()).unwrap();
+        assert_eq!(las.text("WELL").as_deref(), Some("BIG OIL 1"));
+        assert_eq!(las.text("UWI"), None);
+        assert_eq!(las.text("API").as_deref(), Some("15-023"));
     }
 }
