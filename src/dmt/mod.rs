@@ -6,6 +6,8 @@
 //! outwards, away from the marked (`value >= threshold`) side; `volume` and `area` are
 //! computed from exactly the triangles in `triangles`.
 
+pub mod mt;
+
 use glam::DVec3;
 use serde::Serialize;
 
