@@ -9,6 +9,8 @@
 
 use glam::DVec3;
 
+use rayon::prelude::*;
+
 use super::{Body, ShellCounts};
 use crate::tet::{NO_NEIGHBOUR, TetMesh};
 
@@ -112,23 +114,23 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
         mesh.points.len(),
         "marching_tetrahedra needs one value per mesh vertex"
     );
-    let marked = |v: u32| values[v as usize] >= threshold;
+    let marks: Vec<bool> = values.par_iter().map(|v| *v >= threshold).collect();
+    let marked = |v: u32| marks[v as usize];
     let mask_of =
         |tet: &[u32; 4]| -> u8 { (0..4).fold(0u8, |m, c| m | (u8::from(marked(tet[c])) << c)) };
 
-    // Active edges, canonical (min, max), sorted: vertex n is edge n.
-    let mut edges: Vec<(u32, u32)> = Vec::new();
-    let mut active_tets = Vec::new();
-    let mut used = vec![false; mesh.points.len()];
-    for (t, tet) in mesh.tets.iter().enumerate() {
-        for v in tet {
-            used[*v as usize] = true;
-        }
+    // Active tetrahedra, then active edges, canonical (min, max), sorted: vertex n is edge n.
+    let active_tets: Vec<u32> = mesh
+        .tets
+        .par_iter()
+        .enumerate()
+        .filter(|(_, tet)| !matches!(mask_of(tet), 0 | 15))
+        .map(|(t, _)| t as u32)
+        .collect();
+    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(active_tets.len() * 3);
+    for &t in &active_tets {
+        let tet = &mesh.tets[t as usize];
         let mask = mask_of(tet);
-        if mask == 0 || mask == 15 {
-            continue;
-        }
-        active_tets.push(t as u32);
         for a in 0..4 {
             for b in a + 1..4 {
                 if (mask >> a & 1) != (mask >> b & 1) {
@@ -197,10 +199,9 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
         faces.push(face);
     }
 
+    let regions = marked_regions(mesh, &marks);
     let counts = ShellCounts {
-        marked_points: (0..mesh.points.len())
-            .filter(|v| used[*v] && marked(*v as u32))
-            .count(),
+        marked_points: regions.par_iter().filter(|r| **r != NO_REGION).count(),
         active_tets: active_tets.len(),
         active_edges: edges.len(),
         surface_vertices: vertices.len(),
@@ -218,8 +219,6 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
     };
 
     // Every triangle is labelled with the marked region behind it.
-    let marks: Vec<bool> = values.iter().map(|v| *v >= threshold).collect();
-    let regions = marked_regions(mesh, &marks);
     let region_of_tet = |tet: &[u32; 4]| -> u32 {
         let v = tet.iter().find(|v| marks[**v as usize]);
         regions[*v.expect("an active or capped tetrahedron has a marked corner") as usize]
@@ -240,40 +239,48 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
     let mut triangles = surface.triangles();
     let mut is_cap = vec![false; triangles.len()];
     let mut hull_vertex = vec![u32::MAX; mesh.points.len()];
-    for (t, tet) in mesh.tets.iter().enumerate() {
-        for (j, corners) in OUTWARD_FACES.iter().enumerate() {
-            if mesh.neighbours[t][j] != NO_NEIGHBOUR {
-                continue;
-            }
-            let face = corners.map(|c| tet[c]);
-            if !face.iter().any(|v| marked(*v)) {
-                continue;
-            }
-            let mut polygon: Vec<u32> = Vec::with_capacity(4);
-            for n in 0..3 {
-                let (x, y) = (face[n], face[(n + 1) % 3]);
-                if marked(x) {
-                    if hull_vertex[x as usize] == u32::MAX {
-                        hull_vertex[x as usize] = positions.len() as u32;
-                        positions.push(mesh.points[x as usize]);
-                    }
-                    polygon.push(hull_vertex[x as usize]);
+    // Hull faces with a marked corner, in tetrahedron order.
+    let hull_faces: Vec<(u32, u8)> = mesh
+        .tets
+        .par_iter()
+        .zip(mesh.neighbours.par_iter())
+        .enumerate()
+        .flat_map_iter(|(t, (tet, neighbours))| {
+            (0..4).filter_map(move |j| {
+                let on_hull = neighbours[j] == NO_NEIGHBOUR;
+                let any_marked = OUTWARD_FACES[j].iter().any(|c| marked(tet[*c]));
+                (on_hull && any_marked).then_some((t as u32, j as u8))
+            })
+        })
+        .collect();
+    for &(t, j) in &hull_faces {
+        let tet = &mesh.tets[t as usize];
+        let corners = &OUTWARD_FACES[j as usize];
+        let face = corners.map(|c| tet[c]);
+        let mut polygon: Vec<u32> = Vec::with_capacity(4);
+        for n in 0..3 {
+            let (x, y) = (face[n], face[(n + 1) % 3]);
+            if marked(x) {
+                if hull_vertex[x as usize] == u32::MAX {
+                    hull_vertex[x as usize] = positions.len() as u32;
+                    positions.push(mesh.points[x as usize]);
                 }
-                if marked(x) != marked(y) {
-                    polygon.push(edge_vertex(x, y));
-                }
+                polygon.push(hull_vertex[x as usize]);
             }
-            match polygon.len() {
-                3 => triangles.push([polygon[0], polygon[1], polygon[2]]),
-                4 => triangles.extend(split_quad(
-                    &positions,
-                    [polygon[0], polygon[1], polygon[2], polygon[3]],
-                )),
-                n => unreachable!("the marked part of a triangle has 3 or 4 corners, not {n}"),
+            if marked(x) != marked(y) {
+                polygon.push(edge_vertex(x, y));
             }
-            is_cap.resize(triangles.len(), true);
-            labels.resize(triangles.len(), region_of_tet(tet));
         }
+        match polygon.len() {
+            3 => triangles.push([polygon[0], polygon[1], polygon[2]]),
+            4 => triangles.extend(split_quad(
+                &positions,
+                [polygon[0], polygon[1], polygon[2], polygon[3]],
+            )),
+            n => unreachable!("the marked part of a triangle has 3 or 4 corners, not {n}"),
+        }
+        is_cap.resize(triangles.len(), true);
+        labels.resize(triangles.len(), region_of_tet(tet));
     }
     surface.bodies = bodies_by_label(&positions, &triangles, &is_cap, &labels);
     surface

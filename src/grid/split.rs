@@ -1,8 +1,8 @@
 //! Cube splits: every grid cell cut into 5 or 6 tetrahedra, conforming across cells.
 //!
 //! Invariant: the returned mesh has only positively oriented tetrahedra (orientation decided
-//! exactly; zero-volume ones are left out and counted) and symmetric `neighbours` built by
-//! pairing equal sorted face triples.
+//! exactly; zero-volume ones are left out and counted) and symmetric `neighbours`, derived
+//! from the cell structure (and checked in tests against pairing equal sorted face triples).
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -86,30 +86,45 @@ pub fn tetrahedralize_with_report(
             ),
         ));
     }
-    let cells_per_slab = (nx - 1) * (ny - 1);
+    let cells = [nx - 1, ny - 1, nz - 1];
+    let cells_per_slab = cells[0] * cells[1];
+    let sets = TemplateSets::new(split);
 
     // Each slab of cells (fixed k) is independent: split them in parallel.
-    let slabs: Vec<(Vec<[u32; 4]>, SplitReport)> = (0..nz - 1)
+    let slabs: Vec<(Vec<[u32; 4]>, Vec<CellTets>, SplitReport)> = (0..cells[2])
         .into_par_iter()
         .map(|k| {
             let mut tets = Vec::with_capacity(cells_per_slab * split.tets_per_cell());
+            let mut kept = Vec::with_capacity(cells_per_slab);
             let mut report = SplitReport::default();
-            for j in 0..ny - 1 {
-                for i in 0..nx - 1 {
-                    split_cell(grid, split, [i, j, k], &mut tets, &mut report);
+            for j in 0..cells[1] {
+                for i in 0..cells[0] {
+                    let set = &sets.sets[sets.set_of([i, j, k])];
+                    kept.push(split_cell(
+                        grid,
+                        &set.templates,
+                        [i, j, k],
+                        &mut tets,
+                        &mut report,
+                    ));
                 }
             }
-            (tets, report)
+            (tets, kept, report)
         })
         .collect();
 
     let mut report = SplitReport {
-        cells: cells_per_slab * (nz - 1),
+        cells: cells_per_slab * cells[2],
         ..SplitReport::default()
     };
-    let mut tets = Vec::with_capacity(slabs.iter().map(|(t, _)| t.len()).sum());
-    for (slab, r) in slabs {
+    let total: usize = slabs.iter().map(|(t, _, _)| t.len()).sum();
+    let mut tets = Vec::with_capacity(total);
+    let mut cell_tets = Vec::with_capacity(report.cells);
+    let mut slab_sizes = Vec::with_capacity(cells[2]);
+    for (slab, kept, r) in slabs {
+        slab_sizes.push(slab.len());
         tets.extend_from_slice(&slab);
+        cell_tets.extend_from_slice(&kept);
         report.flipped_tets += r.flipped_tets;
         report.degenerate_tets += r.degenerate_tets;
         report.degenerate_cells += r.degenerate_cells;
@@ -126,7 +141,7 @@ pub fn tetrahedralize_with_report(
         ));
     }
 
-    let neighbours = face_adjacency(&tets);
+    let neighbours = structured_adjacency(&sets, cells, &cell_tets, &slab_sizes, tets.len());
     report.boundary_faces = neighbours
         .iter()
         .flatten()
@@ -142,24 +157,52 @@ pub fn tetrahedralize_with_report(
     Ok((mesh, report))
 }
 
+/// Which templates of a cell became tetrahedra, and which of those were reordered.
+#[derive(Debug, Clone, Copy, Default)]
+struct CellTets {
+    /// Bit `n`: template `n` was kept.
+    kept: u8,
+    /// Bit `n`: template `n` was stored with corners 2 and 3 swapped.
+    flipped: u8,
+    /// Index of the cell's first tetrahedron within its slab.
+    first_in_slab: u32,
+}
+
+impl CellTets {
+    /// Index within the slab of template `n`'s tetrahedron, if kept.
+    fn tet(&self, n: usize) -> Option<u32> {
+        (self.kept >> n & 1 == 1)
+            .then(|| self.first_in_slab + (self.kept & ((1u8 << n) - 1)).count_ones())
+    }
+
+    /// The stored face index of template face `j` of template `n` (2 and 3 swap when the
+    /// corners were swapped).
+    fn stored_face(&self, n: usize, j: usize) -> usize {
+        if self.flipped >> n & 1 == 1 && j >= 2 {
+            5 - j
+        } else {
+            j
+        }
+    }
+}
+
 fn split_cell(
     grid: &GridVolume,
-    split: CubeSplit,
+    templates: &[[u8; 4]],
     [i, j, k]: [usize; 3],
     tets: &mut Vec<[u32; 4]>,
     report: &mut SplitReport,
-) {
+) -> CellTets {
     let corner = |b: u8| -> u32 {
         let b = b as usize;
         grid.index(i + (b & 1), j + (b >> 1 & 1), k + (b >> 2 & 1)) as u32
     };
-    let templates: &[[u8; 4]] = match split {
-        CubeSplit::Six => &SIX,
-        CubeSplit::Five if (i + j + k) % 2 == 0 => &FIVE_EVEN,
-        CubeSplit::Five => &FIVE_ODD,
+    let mut cell = CellTets {
+        first_in_slab: tets.len() as u32,
+        ..CellTets::default()
     };
     let mut degenerate = false;
-    for template in templates {
+    for (n, template) in templates.iter().enumerate() {
         let mut tet = template.map(corner);
         if tet.iter().any(|v| grid.is_blanked(*v as usize)) {
             report.blanked_tets += 1;
@@ -175,12 +218,165 @@ fn split_cell(
         if volume6 < 0.0 {
             tet.swap(2, 3);
             report.flipped_tets += 1;
+            cell.flipped |= 1 << n;
         }
+        cell.kept |= 1 << n;
         tets.push(tet);
     }
     if degenerate {
         report.degenerate_cells += 1;
     }
+    cell
+}
+
+/// Where the face opposite corner `j` of a template tetrahedron leads.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Link {
+    /// Face `j` of template `n` of the same cell.
+    Inside { n: usize, j: usize },
+    /// Face `j` of template `n` of the next cell along `axis`, `+1` or `-1`.
+    Across {
+        axis: usize,
+        up: bool,
+        n: usize,
+        j: usize,
+    },
+}
+
+/// The template sets of a split (one for CFK, two alternating ones for the 5-split) and the
+/// face links between templates, derived from the corner triples.
+struct TemplateSets {
+    sets: Vec<TemplateSet>,
+}
+
+struct TemplateSet {
+    templates: Vec<[u8; 4]>,
+    links: Vec<[Link; 4]>,
+}
+
+impl TemplateSets {
+    fn new(split: CubeSplit) -> TemplateSets {
+        let raw: Vec<&[[u8; 4]]> = match split {
+            CubeSplit::Six => vec![&SIX],
+            CubeSplit::Five => vec![&FIVE_EVEN, &FIVE_ODD],
+        };
+        let face = |t: &[u8; 4], j: usize| {
+            let mut f = [t[(j + 1) % 4], t[(j + 2) % 4], t[(j + 3) % 4]];
+            f.sort_unstable();
+            f
+        };
+        let find = |set: &[[u8; 4]], wanted: [u8; 3], skip: Option<(usize, usize)>| {
+            (0..set.len())
+                .flat_map(|n| (0..4).map(move |j| (n, j)))
+                .find(|&(n, j)| Some((n, j)) != skip && face(&set[n], j) == wanted)
+                .expect("the cube split templates are conforming")
+        };
+        let sets = (0..raw.len())
+            .map(|s| {
+                let set = raw[s];
+                // The neighbouring cell uses the other set of the 5-split.
+                let other = raw[(s + 1) % raw.len()];
+                let links = (0..set.len())
+                    .map(|n| {
+                        std::array::from_fn(|j| {
+                            let f = face(&set[n], j);
+                            for axis in 0..3 {
+                                for up in [false, true] {
+                                    let bit = u8::from(up) << axis;
+                                    if f.iter().all(|c| c & (1 << axis) == bit) {
+                                        let mut mirrored = f.map(|c| c ^ (1 << axis));
+                                        mirrored.sort_unstable();
+                                        let (n, j) = find(other, mirrored, None);
+                                        return Link::Across { axis, up, n, j };
+                                    }
+                                }
+                            }
+                            let (n2, j2) = find(set, f, Some((n, j)));
+                            Link::Inside { n: n2, j: j2 }
+                        })
+                    })
+                    .collect();
+                TemplateSet {
+                    templates: set.to_vec(),
+                    links,
+                }
+            })
+            .collect();
+        TemplateSets { sets }
+    }
+
+    fn set_of(&self, [i, j, k]: [usize; 3]) -> usize {
+        (i + j + k) % self.sets.len()
+    }
+}
+
+/// `neighbours` from the cell structure: template faces inside a cell pair up within it,
+/// faces on a cell face pair with the neighbouring cell's; a partner that was left out (or
+/// beyond the grid) gives [`NO_NEIGHBOUR`].
+fn structured_adjacency(
+    sets: &TemplateSets,
+    cells: [usize; 3],
+    cell_tets: &[CellTets],
+    slab_sizes: &[usize],
+    total: usize,
+) -> Vec<[u32; 4]> {
+    let mut slab_start = Vec::with_capacity(slab_sizes.len());
+    let mut start = 0u32;
+    for size in slab_sizes {
+        slab_start.push(start);
+        start += *size as u32;
+    }
+    let cell_index = |c: [usize; 3]| c[0] + cells[0] * (c[1] + cells[1] * c[2]);
+    let global = |c: [usize; 3], n: usize, j: usize| -> u32 {
+        let cell = &cell_tets[cell_index(c)];
+        match cell.tet(n) {
+            Some(t) => (slab_start[c[2]] + t) * 4 + cell.stored_face(n, j) as u32,
+            None => NO_NEIGHBOUR,
+        }
+    };
+    let mut neighbours = vec![[NO_NEIGHBOUR; 4]; total];
+    let mut chunks = Vec::with_capacity(slab_sizes.len());
+    let mut rest = neighbours.as_mut_slice();
+    for size in slab_sizes {
+        let (chunk, tail) = rest.split_at_mut(*size);
+        chunks.push(chunk);
+        rest = tail;
+    }
+    chunks.into_par_iter().enumerate().for_each(|(k, chunk)| {
+        for j in 0..cells[1] {
+            for i in 0..cells[0] {
+                let c = [i, j, k];
+                let cell = &cell_tets[cell_index(c)];
+                let set = &sets.sets[sets.set_of(c)];
+                for (n, links) in set.links.iter().enumerate() {
+                    let Some(t) = cell.tet(n) else { continue };
+                    for (tj, link) in links.iter().enumerate() {
+                        let value = match *link {
+                            Link::Inside { n: n2, j: j2 } => global(c, n2, j2),
+                            Link::Across {
+                                axis,
+                                up,
+                                n: n2,
+                                j: j2,
+                            } => {
+                                let mut c2 = c;
+                                if up && c2[axis] + 1 < cells[axis] {
+                                    c2[axis] += 1;
+                                } else if !up && c2[axis] > 0 {
+                                    c2[axis] -= 1;
+                                } else {
+                                    continue;
+                                }
+                                global(c2, n2, j2)
+                            }
+                        };
+                        chunk[t as usize][cell.stored_face(n, tj)] = value;
+                    }
+                }
+            }
+        }
+    });
+    neighbours
 }
 
 /// Six times the signed volume `(b-a) . ((c-a) x (d-a))`, with an exact sign (Shewchuk's
@@ -199,6 +395,7 @@ pub(crate) fn signed_volume6(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
 ///
 /// # Panics
 /// If a face is in three or more tetrahedra: the splits are conforming, so that is a bug.
+#[cfg(test)]
 pub(crate) fn face_adjacency(tets: &[[u32; 4]]) -> Vec<[u32; 4]> {
     let mut faces: Vec<([u32; 3], u32)> = Vec::with_capacity(tets.len() * 4);
     for (t, tet) in tets.iter().enumerate() {
@@ -260,6 +457,41 @@ mod tests {
                 })
                 .sum();
             assert!((total - 1.0).abs() < 1e-12, "{templates:?}: {total}");
+        }
+    }
+
+    #[test]
+    fn structured_adjacency_equals_pairing_face_triples() {
+        // Blank a scattering of points and collapse a row so that cells lose tetrahedra.
+        for split in [CubeSplit::Five, CubeSplit::Six] {
+            for seed in 0..4usize {
+                let dims = [5, 4, 6];
+                let n = dims.iter().product::<usize>();
+                let mut points = Vec::with_capacity(n);
+                for k in 0..dims[2] {
+                    for j in 0..dims[1] {
+                        for i in 0..dims[0] {
+                            let z = if seed == 3 && k == 0 && j == 1 {
+                                1.0
+                            } else {
+                                k as f64
+                            };
+                            points.push(DVec3::new(i as f64, j as f64 * 0.5, z));
+                        }
+                    }
+                }
+                let blanked = (0..n)
+                    .map(|p| seed > 0 && (p * 7 + seed) % 13 == 0)
+                    .collect();
+                let grid =
+                    GridVolume::curvilinear("g", dims, points, vec![0.0; n], blanked).unwrap();
+                let (mesh, _) = tetrahedralize_with_report(&grid, split).unwrap();
+                assert_eq!(
+                    mesh.neighbours,
+                    face_adjacency(&mesh.tets),
+                    "{split} seed {seed}"
+                );
+            }
         }
     }
 }

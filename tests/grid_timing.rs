@@ -1,0 +1,109 @@
+//! Timings of the grid path (read, split, marching tetrahedra), printed, never asserted.
+//! Run: `cargo test --test grid_timing -- --ignored --nocapture` (the test profile is
+//! optimised, opt-level 2).
+
+use std::path::Path;
+use std::time::Instant;
+
+use glam::DVec3;
+use wellmesh::dmt::mt::marching_tetrahedra;
+use wellmesh::grid::{
+    CubeSplit, GridVolume, Plot3dVariable, read_nrrd, read_plot3d, tetrahedralize_with_report,
+};
+
+fn data(path: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data")
+        .join(path)
+}
+
+fn split_and_contour(name: &str, grid: &GridVolume, threshold: f64) {
+    for split in [CubeSplit::Five, CubeSplit::Six] {
+        let t0 = Instant::now();
+        let (mesh, report) = tetrahedralize_with_report(grid, split).unwrap();
+        let split_s = t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        let mt = marching_tetrahedra(&mesh, &grid.values, threshold);
+        let mt_s = t1.elapsed().as_secs_f64();
+        let volume: f64 = mt.bodies.iter().map(|b| b.volume).sum();
+        let closed = mt.bodies.iter().filter(|b| b.closed).count();
+        println!(
+            "{name} split {split}: tets {} (flipped {}, degenerate {} in {} cells) split {split_s:.3} s; \
+             mt threshold {threshold}: active tets {} edges {} bodies {} ({closed} closed) volume {volume:.6e} in {mt_s:.3} s",
+            report.tets,
+            report.flipped_tets,
+            report.degenerate_tets,
+            report.degenerate_cells,
+            mt.counts.active_tets,
+            mt.counts.active_edges,
+            mt.bodies.len(),
+        );
+    }
+}
+
+#[test]
+#[ignore = "timing run, prints figures"]
+fn timings() {
+    let t = Instant::now();
+    let head = read_nrrd(&data("vtk_headsq/quarter.nhdr")).unwrap();
+    println!(
+        "headsq read {:?} in {:.3} s",
+        head.dims,
+        t.elapsed().as_secs_f64()
+    );
+    split_and_contour("headsq", &head, 500.0);
+
+    let xyz = std::fs::read(data("vtk_plot3d_bluntfin_combustor/bluntfinxyz.bin")).unwrap();
+    let q = std::fs::read(data("vtk_plot3d_bluntfin_combustor/bluntfinq.bin")).unwrap();
+    let t = Instant::now();
+    let fin = read_plot3d("fin.xyz", &xyz, "fin.q", &q, Plot3dVariable::Density, 0).unwrap();
+    println!(
+        "bluntfin read {:?} in {:.3} s, density {:?}",
+        fin.dims,
+        t.elapsed().as_secs_f64(),
+        fin.value_range()
+    );
+    split_and_contour("bluntfin density", &fin, 1.5);
+
+    // 103^3 cells x 6 = 6.56M tetrahedra: a sphere.
+    let n = 104;
+    let values: Vec<f64> = (0..n * n * n)
+        .map(|i| {
+            let p = DVec3::new((i % n) as f64, ((i / n) % n) as f64, (i / (n * n)) as f64);
+            -(p - DVec3::splat(51.5)).length_squared()
+        })
+        .collect();
+    let ball = GridVolume::regular("ball", [n; 3], DVec3::ONE, values).unwrap();
+    split_and_contour("ball 104^3", &ball, -40.0 * 40.0);
+}
+
+#[test]
+#[ignore = "timing run, prints figures"]
+fn mt_sections() {
+    let n = 104;
+    let values: Vec<f64> = (0..n * n * n)
+        .map(|i| {
+            let p = DVec3::new((i % n) as f64, ((i / n) % n) as f64, (i / (n * n)) as f64);
+            -(p - DVec3::splat(51.5)).length_squared()
+        })
+        .collect();
+    let ball = GridVolume::regular("ball", [n; 3], DVec3::ONE, values).unwrap();
+    let (mesh, _) = tetrahedralize_with_report(&ball, CubeSplit::Six).unwrap();
+    let marks: Vec<bool> = ball.values.iter().map(|v| *v >= -1600.0).collect();
+    for _ in 0..3 {
+        let t = Instant::now();
+        let r = wellmesh::dmt::mt::marked_regions(&mesh, &marks);
+        println!(
+            "marked_regions {:.3} s ({})",
+            t.elapsed().as_secs_f64(),
+            r.len()
+        );
+        let t = Instant::now();
+        let mt = marching_tetrahedra(&mesh, &ball.values, -1600.0);
+        println!(
+            "mt {:.3} s ({})",
+            t.elapsed().as_secs_f64(),
+            mt.bodies.len()
+        );
+    }
+}
