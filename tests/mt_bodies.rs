@@ -259,3 +259,45 @@ proptest! {
         prop_assert_eq!(inside.counts.active_edges, outside.counts.active_edges);
     }
 }
+
+#[test]
+fn blanked_points_leave_a_hole_that_is_capped_like_the_hull() {
+    // A 2x2x2 block of "don't know" points inside a marked slab: the tetrahedra touching
+    // them are left out, and the body gains a capped cavity around the hole.
+    let dims = [9, 9, 9];
+    let n = 9 * 9 * 9;
+    let values: Vec<f64> = (0..n).map(|p| if p / 81 < 6 { 1.0 } else { 0.0 }).collect();
+    let mut blanked = vec![false; n];
+    for k in 3..5 {
+        for j in 3..5 {
+            for i in 3..5 {
+                blanked[i + 9 * (j + 9 * k)] = true;
+            }
+        }
+    }
+    let points = (0..n)
+        .map(|p| DVec3::new((p % 9) as f64, ((p / 9) % 9) as f64, (p / 81) as f64))
+        .collect();
+    let grid = GridVolume::curvilinear("holed", dims, points, values, blanked).unwrap();
+    for split in SPLITS {
+        let mesh = tetrahedralize(&grid, split).unwrap();
+        let kept_volume: f64 = mesh
+            .tets
+            .iter()
+            .map(|t| {
+                let [a, b, c, d] = t.map(|v| mesh.points[v as usize]);
+                (b - a).dot((c - a).cross(d - a)) / 6.0
+            })
+            .sum();
+        assert!(kept_volume < 512.0 - 1.0, "{split}: the hole removed volume");
+        let inside = marching_tetrahedra(&mesh, &grid.values, 0.5);
+        let outside =
+            marching_tetrahedra(&mesh, &grid.values.iter().map(|v| -v).collect::<Vec<_>>(), -0.5);
+        assert_eq!(inside.bodies.len(), 1, "{split}");
+        let body = &inside.bodies[0];
+        assert_closed_and_oriented(body);
+        assert!(body.truncated);
+        let total: f64 = inside.bodies.iter().chain(&outside.bodies).map(|b| b.volume).sum();
+        assert!((total - kept_volume).abs() < 1e-9, "{split}: {total} vs {kept_volume}");
+    }
+}
