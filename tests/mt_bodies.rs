@@ -289,15 +289,29 @@ fn blanked_points_leave_a_hole_that_is_capped_like_the_hull() {
                 (b - a).dot((c - a).cross(d - a)) / 6.0
             })
             .sum();
-        assert!(kept_volume < 512.0 - 1.0, "{split}: the hole removed volume");
+        assert!(
+            kept_volume < 512.0 - 1.0,
+            "{split}: the hole removed volume"
+        );
         let inside = marching_tetrahedra(&mesh, &grid.values, 0.5);
-        let outside =
-            marching_tetrahedra(&mesh, &grid.values.iter().map(|v| -v).collect::<Vec<_>>(), -0.5);
+        let outside = marching_tetrahedra(
+            &mesh,
+            &grid.values.iter().map(|v| -v).collect::<Vec<_>>(),
+            -0.5,
+        );
         assert_eq!(inside.bodies.len(), 1, "{split}");
         let body = &inside.bodies[0];
         assert_closed_and_oriented(body);
         assert!(body.truncated);
-        let total: f64 = inside.bodies.iter().chain(&outside.bodies).map(|b| b.volume).sum();
-        assert!((total - kept_volume).abs() < 1e-9, "{split}: {total} vs {kept_volume}");
+        let total: f64 = inside
+            .bodies
+            .iter()
+            .chain(&outside.bodies)
+            .map(|b| b.volume)
+            .sum();
+        assert!(
+            (total - kept_volume).abs() < 1e-9,
+            "{split}: {total} vs {kept_volume}"
+        );
     }
 }
