@@ -11,7 +11,8 @@ use glam::DVec3;
 
 use rayon::prelude::*;
 
-use super::{Body, ShellCounts};
+use super::{Body, DmtError, Shell, ShellCounts};
+use crate::progress::Progress;
 use crate::tet::{NO_NEIGHBOUR, TetMesh};
 
 /// Corners of the face opposite corner `j` of a positively oriented tetrahedron, counter-
@@ -286,6 +287,47 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
     surface
 }
 
+/// Marching tetrahedra as a [`Shell`]: checks the input like DMT's extraction, runs
+/// [`marching_tetrahedra`] and measures triangle quality over the bodies.
+pub fn shell(
+    mesh: &TetMesh,
+    values: &[f64],
+    threshold: f64,
+    progress: &dyn Progress,
+) -> Result<Shell, DmtError> {
+    if values.len() != mesh.points.len() {
+        return Err(DmtError::ValueCount {
+            expected: mesh.points.len(),
+            got: values.len(),
+        });
+    }
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(DmtError::NonFinite(i));
+    }
+    if !threshold.is_finite() {
+        return Err(DmtError::BadThreshold(threshold));
+    }
+    let stage = format!("marching tetrahedra {threshold}");
+    progress.report(&stage, 0.0);
+    if progress.is_cancelled() {
+        return Err(DmtError::Cancelled);
+    }
+    let surface = marching_tetrahedra(mesh, values, threshold);
+    let quality = super::measure::quality(
+        surface
+            .bodies
+            .iter()
+            .map(|b| (b.positions.as_slice(), b.triangles.as_slice())),
+    );
+    progress.report(&stage, 1.0);
+    Ok(Shell {
+        threshold,
+        bodies: surface.bodies,
+        counts: surface.counts,
+        quality,
+    })
+}
+
 /// Connected pieces of the marked region: `regions[v]` is the same number for marked
 /// vertices joined through marked material, [`NO_REGION`] for unmarked or unused vertices.
 ///
@@ -520,5 +562,20 @@ mod tests {
         assert!(!is_closed(&[[0, 1, 2]]));
         assert!(is_closed(&[[0, 1, 2], [0, 2, 1]]));
         assert!(!is_closed(&[[0, 1, 2], [0, 1, 2]]));
+    }
+
+    #[test]
+    fn shell_checks_its_input_and_measures_quality() {
+        let mesh = single_tet();
+        let progress = crate::progress::NoProgress;
+        let shell = shell(&mesh, &[1.0, 0.0, 0.0, 0.0], 0.5, &progress).unwrap();
+        assert_eq!(shell.counts.surface_faces, 1);
+        assert_eq!(shell.quality.triangles, 4, "MT triangle + 3 cap triangles");
+        assert!(shell.quality.min_angle_deg > 40.0);
+        assert!(matches!(
+            super::shell(&mesh, &[1.0, f64::NAN, 0.0, 0.0], 0.5, &progress),
+            Err(DmtError::NonFinite(1))
+        ));
+        assert!(super::shell(&mesh, &[1.0; 3], 0.5, &progress).is_err());
     }
 }
