@@ -646,4 +646,63 @@ mod tests {
         );
         assert!("temperature".parse::<Plot3dVariable>().is_err());
     }
+
+    /// A multi-grid, little-endian, 64-bit, Fortran-record grid with IBLANK and its
+    /// solution; block `b` has coordinates offset by `100 b` and density `b + 1`.
+    fn multigrid(dims: &[[usize; 3]]) -> (Vec<u8>, Vec<u8>) {
+        let rec = |out: &mut Vec<u8>, body: &[u8]| {
+            out.extend((body.len() as i32).to_le_bytes());
+            out.extend(body);
+            out.extend((body.len() as i32).to_le_bytes());
+        };
+        let count = (dims.len() as i32).to_le_bytes();
+        let all_dims: Vec<u8> = dims
+            .iter()
+            .flatten()
+            .flat_map(|d| (*d as i32).to_le_bytes())
+            .collect();
+        let (mut xyz, mut q) = (Vec::new(), Vec::new());
+        for out in [&mut xyz, &mut q] {
+            rec(out, &count);
+            rec(out, &all_dims);
+        }
+        for (b, d) in dims.iter().enumerate() {
+            let n = d.iter().product::<usize>();
+            let mut body = Vec::new();
+            for axis in 0..3 {
+                for p in 0..n {
+                    let ijk = super::super::ijk(*d, p);
+                    body.extend((ijk[axis] as f64 + 100.0 * b as f64).to_le_bytes());
+                }
+            }
+            for _ in 0..n {
+                body.extend(1i32.to_le_bytes());
+            }
+            rec(&mut xyz, &body);
+            rec(&mut q, &[0u8; 32]);
+            let mut body = Vec::new();
+            for var in 0..5 {
+                for _ in 0..n {
+                    let v = if var == 0 { b as f64 + 1.0 } else { 0.0 };
+                    body.extend(v.to_le_bytes());
+                }
+            }
+            rec(&mut q, &body);
+        }
+        (xyz, q)
+    }
+
+    #[test]
+    fn reads_a_block_of_a_multi_grid_file() {
+        let (xyz, q) = multigrid(&[[2, 2, 2], [3, 2, 4]]);
+        let grid = read_plot3d("m.xyz", &xyz, "m.q", &q, Plot3dVariable::Density, 1).unwrap();
+        assert_eq!(grid.dims, [3, 2, 4]);
+        assert!(grid.values.iter().all(|v| *v == 2.0));
+        assert_eq!(grid.origin, DVec3::new(101.0, 100.5, 101.5));
+        assert!(grid.warnings.is_empty(), "{:?}", grid.warnings);
+        let err = read_plot3d("m.xyz", &xyz, "m.q", &q, Plot3dVariable::Density, 2)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("m.xyz") && err.contains("block 2"), "{err}");
+    }
 }
