@@ -22,14 +22,31 @@ fn split_and_contour(name: &str, grid: &GridVolume, threshold: f64) {
         let t0 = Instant::now();
         let (mesh, report) = tetrahedralize_with_report(grid, split).unwrap();
         let split_s = t0.elapsed().as_secs_f64();
+        let mesh_volume: f64 = mesh
+            .tets
+            .iter()
+            .map(|t| {
+                let [a, b, c, d] = t.map(|v| mesh.points[v as usize]);
+                (b - a).dot((c - a).cross(d - a)) / 6.0
+            })
+            .sum();
         let t1 = Instant::now();
         let mt = marching_tetrahedra(&mesh, &grid.values, threshold);
         let mt_s = t1.elapsed().as_secs_f64();
         let volume: f64 = mt.bodies.iter().map(|b| b.volume).sum();
+        let quality = wellmesh::dmt::mt::shell(
+            &mesh,
+            &grid.values,
+            threshold,
+            &wellmesh::progress::NoProgress,
+        )
+        .unwrap()
+        .quality;
         let closed = mt.bodies.iter().filter(|b| b.closed).count();
         println!(
-            "{name} split {split}: tets {} (flipped {}, degenerate {} in {} cells) split {split_s:.3} s; \
-             mt threshold {threshold}: active tets {} edges {} bodies {} ({closed} closed) volume {volume:.6e} in {mt_s:.3} s",
+            "{name} split {split}: tets {} (flipped {}, degenerate {} in {} cells) mesh volume {mesh_volume:.6e} split {split_s:.3} s; \
+             mt threshold {threshold}: active tets {} edges {} bodies {} ({closed} closed) volume {volume:.6e} in {mt_s:.3} s; \
+             triangles {} min angle < 10 deg {:.1}%",
             report.tets,
             report.flipped_tets,
             report.degenerate_tets,
@@ -37,6 +54,8 @@ fn split_and_contour(name: &str, grid: &GridVolume, threshold: f64) {
             mt.counts.active_tets,
             mt.counts.active_edges,
             mt.bodies.len(),
+            quality.triangles,
+            quality.min_angle_under_10deg * 100.0,
         );
     }
 }
