@@ -200,4 +200,50 @@ mod tests {
         let err = format!("{:#}", cli.grid.load().unwrap_err());
         assert!(err.contains("/nonexistent/v.raw"), "{err}");
     }
+
+    #[test]
+    fn loads_a_raw_volume_and_the_real_nrrd_and_plot3d_files() {
+        let path = std::env::temp_dir().join(format!("wellmesh-grid-{}.raw", std::process::id()));
+        let samples: Vec<u8> = (0..24u16).flat_map(|v| v.to_be_bytes()).collect();
+        std::fs::write(&path, &samples).unwrap();
+        let cli = Cli::try_parse_from([
+            "t",
+            "--raw",
+            path.to_str().unwrap(),
+            "--dims",
+            "2,3,4",
+            "--spacing",
+            "1,2,0.5",
+            "--dtype",
+            "u16",
+            "--endian",
+            "big",
+        ])
+        .unwrap();
+        let grid = cli.grid.load().unwrap();
+        std::fs::remove_file(&path).unwrap();
+        assert_eq!(grid.dims, [2, 3, 4]);
+        assert_eq!(grid.values[23], 23.0);
+        assert_eq!(grid.points[23] - grid.points[0], DVec3::new(1.0, 4.0, 1.5));
+
+        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
+        let head = data.join("vtk_headsq/quarter.nhdr");
+        let cli = Cli::try_parse_from(["t", "--grid", head.to_str().unwrap()]).unwrap();
+        assert_eq!(cli.grid.load().unwrap().dims, [64, 64, 93]);
+
+        let fin = data.join("vtk_plot3d_bluntfin_combustor");
+        let cli = Cli::try_parse_from([
+            "t",
+            "--plot3d-xyz",
+            fin.join("bluntfinxyz.bin").to_str().unwrap(),
+            "--plot3d-q",
+            fin.join("bluntfinq.bin").to_str().unwrap(),
+            "--variable",
+            "velocity_magnitude",
+        ])
+        .unwrap();
+        let grid = cli.grid.load().unwrap();
+        assert_eq!(grid.dims, [40, 32, 32]);
+        assert_eq!(grid.variable, "velocity_magnitude");
+    }
 }
