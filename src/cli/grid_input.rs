@@ -94,6 +94,19 @@ impl GridArgs {
 
     /// Reads the grid named by the arguments.
     pub fn load(&self) -> anyhow::Result<GridVolume> {
+        self.load_with_variable(None)
+    }
+
+    /// Reads the grid, with the PLOT3D variable named by `variable` (for a subcommand whose
+    /// own `--variable` also names well-log columns) instead of `self.variable`.
+    pub fn load_with_variable(&self, variable: Option<&str>) -> anyhow::Result<GridVolume> {
+        let variable = match variable {
+            Some(name) => Some(
+                name.parse::<Plot3dVariable>()
+                    .map_err(|e| anyhow::anyhow!("--variable: {e}"))?,
+            ),
+            None => self.variable,
+        };
         if let Some(path) = &self.grid {
             return Ok(read_nrrd(path)?);
         }
@@ -120,7 +133,7 @@ impl GridArgs {
                 &xyz_bytes,
                 &q.display().to_string(),
                 &q_bytes,
-                self.variable.unwrap_or(Plot3dVariable::Density),
+                variable.unwrap_or(Plot3dVariable::Density),
                 self.plot3d_block.unwrap_or(0),
             )?);
         }
