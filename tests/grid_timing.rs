@@ -126,3 +126,39 @@ fn mt_sections() {
         );
     }
 }
+
+/// How often random blanking (10% of points) leaves a non-manifold boundary that a body
+/// touches: such bodies are reported `closed: false`.
+#[test]
+#[ignore = "measurement run, prints figures"]
+fn random_blanking_open_body_share() {
+    let (mut open, mut total) = (0, 0);
+    for seed in 0..300u64 {
+        let mut x = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let mut uniform = || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 33) as f64 / (1u64 << 31) as f64
+        };
+        let n = 6 * 6 * 6;
+        let values: Vec<f64> = (0..n).map(|_| uniform()).collect();
+        let blanked: Vec<bool> = (0..n).map(|_| uniform() < 0.1).collect();
+        let points = (0..n)
+            .map(|p| DVec3::new((p % 6) as f64, ((p / 6) % 6) as f64, (p / 36) as f64))
+            .collect();
+        let grid = GridVolume::curvilinear("r", [6, 6, 6], points, values, blanked).unwrap();
+        for split in [CubeSplit::Five, CubeSplit::Six] {
+            let Ok((mesh, _)) = tetrahedralize_with_report(&grid, split) else {
+                continue;
+            };
+            for body in marching_tetrahedra(&mesh, &grid.values, 0.5).bodies {
+                total += 1;
+                open += usize::from(!body.closed);
+            }
+        }
+    }
+    println!("random 10% blanking on 6^3 grids: {open} of {total} bodies not closed");
+}
