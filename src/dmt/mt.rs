@@ -7,6 +7,8 @@
 //! marked parts of the hull triangles added as caps, every body is a closed, consistently
 //! wound 2-manifold enclosing the marked region.
 
+use std::collections::HashMap;
+
 use glam::DVec3;
 
 use rayon::prelude::*;
@@ -224,22 +226,7 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
         let v = tet.iter().find(|v| marks[**v as usize]);
         regions[*v.expect("an active or capped tetrahedron has a marked corner") as usize]
     };
-    let mut labels = Vec::with_capacity(surface.faces.len() * 2);
-    for (face, &t) in surface.faces.iter().zip(&surface.face_tets) {
-        let label = region_of_tet(&mesh.tets[t as usize]);
-        let n = if matches!(face, MtFace::Quad(_)) {
-            2
-        } else {
-            1
-        };
-        labels.extend(std::iter::repeat_n(label, n));
-    }
 
-    // Close at the hull: the marked part of every hull triangle, outward.
-    let mut positions = surface.vertices.clone();
-    let mut triangles = surface.triangles();
-    let mut is_cap = vec![false; triangles.len()];
-    let mut hull_vertex = vec![u32::MAX; mesh.points.len()];
     // Hull faces with a marked corner, in tetrahedron order.
     let hull_faces: Vec<(u32, u8)> = mesh
         .tets
@@ -254,22 +241,49 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
             })
         })
         .collect();
-    for &(t, j) in &hull_faces {
+    let face_vertices = |f: usize| -> [u32; 3] {
+        let (t, j) = hull_faces[f];
+        OUTWARD_FACES[j as usize].map(|c| mesh.tets[t as usize][c])
+    };
+    let mut positions = surface.vertices.clone();
+    let sheets = HullSheets::new(
+        mesh,
+        &hull_faces,
+        &face_vertices,
+        &marked,
+        &mut positions,
+        edge_vertex,
+    );
+
+    // The MT faces; a crossing on a hull edge where separate sheets of the hull meet takes
+    // the copy of its sheet.
+    let mut triangles = Vec::with_capacity(surface.faces.len() * 2);
+    let mut labels = Vec::with_capacity(surface.faces.len() * 2);
+    for (face, &t) in surface.faces.iter().zip(&surface.face_tets) {
+        let label = region_of_tet(&mesh.tets[t as usize]);
+        let split = match *face {
+            MtFace::Triangle(v) => vec![v],
+            MtFace::Quad(q) => split_quad(&surface.vertices, q).to_vec(),
+        };
+        for tri in split {
+            triangles.push(tri.map(|v| sheets.crossing(v, t)));
+            labels.push(label);
+        }
+    }
+    let mut is_cap = vec![false; triangles.len()];
+
+    // Close at the hull: the marked part of every hull triangle, outward.
+    for (f, &(t, _)) in hull_faces.iter().enumerate() {
         let tet = &mesh.tets[t as usize];
-        let corners = &OUTWARD_FACES[j as usize];
-        let face = corners.map(|c| tet[c]);
+        let face = face_vertices(f);
         let mut polygon: Vec<u32> = Vec::with_capacity(4);
         for n in 0..3 {
             let (x, y) = (face[n], face[(n + 1) % 3]);
             if marked(x) {
-                if hull_vertex[x as usize] == u32::MAX {
-                    hull_vertex[x as usize] = positions.len() as u32;
-                    positions.push(mesh.points[x as usize]);
-                }
-                polygon.push(hull_vertex[x as usize]);
+                polygon.push(sheets.hull_vertex(f, n));
             }
             if marked(x) != marked(y) {
-                polygon.push(edge_vertex(x, y));
+                polygon.push(sheets.crossing(edge_vertex(x, y), t));
             }
         }
         match polygon.len() {
@@ -285,6 +299,168 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
     }
     surface.bodies = bodies_by_label(&positions, &triangles, &is_cap, &labels);
     surface
+}
+
+/// Vertex identities on the hull that keep the capped surface a 2-manifold where the hull
+/// is not one (tetrahedra left out around blanked points or collapsed cells can leave two
+/// pieces of the mesh touching along an edge or at a point).
+///
+/// Around a hull edge, the tetrahedra form arcs from one hull face to another; each arc is
+/// one sheet. The hull faces at the two ends of an arc are paired across the edge, the
+/// crossing on the edge gets one copy per arc, and every marked hull vertex one copy per
+/// umbrella of hull faces joined through paired edges. Where the hull is a manifold this
+/// changes nothing but numbering.
+struct HullSheets {
+    /// Per hull face and corner position: the surface vertex of that marked corner.
+    hull_vertex: Vec<u32>,
+    /// `(crossing vertex, tetrahedron)` to the copy used in that tetrahedron, for crossings
+    /// on edges where several sheets meet.
+    crossing_copy: HashMap<(u32, u32), u32>,
+}
+
+impl HullSheets {
+    fn new(
+        mesh: &TetMesh,
+        hull_faces: &[(u32, u8)],
+        face_vertices: &dyn Fn(usize) -> [u32; 3],
+        marked: &dyn Fn(u32) -> bool,
+        positions: &mut Vec<DVec3>,
+        edge_vertex: impl Fn(u32, u32) -> u32,
+    ) -> HullSheets {
+        // Hull edges with a marked end, with the hull faces around them.
+        let mut edge_faces: Vec<((u32, u32), u32)> = Vec::with_capacity(hull_faces.len() * 3);
+        for f in 0..hull_faces.len() {
+            let face = face_vertices(f);
+            for n in 0..3 {
+                let (x, y) = (face[n], face[(n + 1) % 3]);
+                if marked(x) || marked(y) {
+                    edge_faces.push(((x.min(y), x.max(y)), f as u32));
+                }
+            }
+        }
+        edge_faces.par_sort_unstable();
+
+        let mut pairs: Vec<(u32, u32, u32, u32)> = Vec::with_capacity(edge_faces.len() / 2);
+        let mut crossing_copy = HashMap::new();
+        let mut face_index: Option<HashMap<(u32, u8), u32>> = None;
+        for group in edge_faces.chunk_by(|a, b| a.0 == b.0) {
+            let (x, y) = group[0].0;
+            if group.len() == 2 {
+                pairs.push((group[0].1, group[1].1, x, y));
+                continue;
+            }
+            // Several sheets meet at this edge: walk the arcs of tetrahedra around it.
+            let index = face_index.get_or_insert_with(|| {
+                hull_faces
+                    .iter()
+                    .enumerate()
+                    .map(|(f, tj)| (*tj, f as u32))
+                    .collect()
+            });
+            let crossing = (marked(x) != marked(y)).then(|| edge_vertex(x, y));
+            let mut visited: Vec<u32> = Vec::new();
+            for &(_, start) in group {
+                if visited.contains(&start) {
+                    continue;
+                }
+                let (mut t, mut k) = hull_faces[start as usize];
+                let mut arc = Vec::new();
+                let mut end = None;
+                for _ in 0..=mesh.tets.len() {
+                    let tet = mesh.tets[t as usize];
+                    arc.push(t);
+                    let entered = tet[k as usize];
+                    let Some(exit) = (0..4).find(|&c| {
+                        let v = tet[c];
+                        v != x && v != y && v != entered
+                    }) else {
+                        break;
+                    };
+                    let next = mesh.neighbours[t as usize][exit];
+                    if next == NO_NEIGHBOUR {
+                        end = index.get(&(t, exit as u8)).copied();
+                        break;
+                    }
+                    (t, k) = (next / 4, (next % 4) as u8);
+                }
+                visited.push(start);
+                if let Some(end) = end {
+                    visited.push(end);
+                    pairs.push((start, end, x, y));
+                }
+                if let Some(v) = crossing {
+                    let copy = if visited.len() <= 2 {
+                        v
+                    } else {
+                        positions.push(positions[v as usize]);
+                        positions.len() as u32 - 1
+                    };
+                    for t in arc {
+                        crossing_copy.insert((v, t), copy);
+                    }
+                }
+            }
+        }
+
+        // Umbrellas: (face, corner) nodes of one marked vertex joined across paired edges.
+        let node = |f: u32, v: u32| -> u32 {
+            let face = face_vertices(f as usize);
+            f * 3 + face.iter().position(|w| *w == v).expect("edge of its face") as u32
+        };
+        let mut parent: Vec<u32> = (0..hull_faces.len() as u32 * 3).collect();
+        fn root(parent: &mut [u32], mut v: u32) -> u32 {
+            while parent[v as usize] != v {
+                let up = parent[parent[v as usize] as usize];
+                parent[v as usize] = up;
+                v = up;
+            }
+            v
+        }
+        for &(f1, f2, x, y) in &pairs {
+            for v in [x, y] {
+                if marked(v) {
+                    let a = root(&mut parent, node(f1, v));
+                    let b = root(&mut parent, node(f2, v));
+                    if a != b {
+                        parent[b as usize] = a;
+                    }
+                }
+            }
+        }
+        let mut vertex_of_root = vec![u32::MAX; parent.len()];
+        let mut hull_vertex = vec![u32::MAX; parent.len()];
+        for f in 0..hull_faces.len() {
+            let face = face_vertices(f);
+            for (n, &v) in face.iter().enumerate() {
+                if !marked(v) {
+                    continue;
+                }
+                let r = root(&mut parent, (f * 3 + n) as u32) as usize;
+                if vertex_of_root[r] == u32::MAX {
+                    vertex_of_root[r] = positions.len() as u32;
+                    positions.push(mesh.points[v as usize]);
+                }
+                hull_vertex[f * 3 + n] = vertex_of_root[r];
+            }
+        }
+        HullSheets {
+            hull_vertex,
+            crossing_copy,
+        }
+    }
+
+    /// The surface vertex of the marked corner at position `n` of hull face `f`.
+    fn hull_vertex(&self, f: usize, n: usize) -> u32 {
+        self.hull_vertex[f * 3 + n]
+    }
+
+    /// The copy of crossing vertex `v` used in tetrahedron `t`.
+    fn crossing(&self, v: u32, t: u32) -> u32 {
+        if self.crossing_copy.is_empty() {
+            return v;
+        }
+        self.crossing_copy.get(&(v, t)).copied().unwrap_or(v)
+    }
 }
 
 /// Marching tetrahedra as a [`Shell`]: checks the input like DMT's extraction, runs
