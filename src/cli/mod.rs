@@ -1,6 +1,7 @@
 //! Subcommands of the `wellmesh` binary, one file each.
 
 pub mod contour;
+pub mod grid_input;
 pub mod input;
 pub mod inspect;
 pub mod tetrahedralize;

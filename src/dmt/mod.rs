@@ -9,6 +9,7 @@
 pub mod curvature;
 pub mod extract;
 pub mod measure;
+pub mod mt;
 pub mod place;
 
 use glam::DVec3;
