@@ -253,6 +253,10 @@ fn the_glb_reads_back_with_its_meshes_vertices_and_extras() {
     let result = nested();
     let bytes = glb(&result, &OutputOptions::default()).unwrap();
     keep("nested.glb", &bytes);
+    keep(
+        "nested.summary.json",
+        &wellmesh::export::summary_json(&result.summary).unwrap(),
+    );
     let (document, buffers, _) = gltf::import_slice(&bytes).unwrap();
 
     // Scene extras: the origin, CRS and unit.

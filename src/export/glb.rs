@@ -40,7 +40,7 @@ impl Builder {
     fn view(&mut self, data: &[u8], target: u32) -> usize {
         let offset = self.bin.len();
         self.bin.extend_from_slice(data);
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         self.buffer_views.push(json!({
@@ -273,7 +273,7 @@ pub fn glb(result: &ContourResult, options: &OutputOptions) -> Result<Vec<u8>, E
             materials.push(json!({
                 "name": "drill holes",
                 "pbrMetallicRoughness": {
-                    "baseColorFactor": [0.1, 0.1, 0.1, 1.0],
+                    "baseColorFactor": [0.8, 0.8, 0.75, 1.0],
                     "metallicFactor": 0.0,
                     "roughnessFactor": 1.0,
                 },
@@ -384,7 +384,7 @@ pub fn glb(result: &ContourResult, options: &OutputOptions) -> Result<Vec<u8>, E
         root.insert("buffers".into(), json!([{ "byteLength": b.bin.len() }]));
     }
     let mut json_chunk = serde_json::to_vec(&Value::Object(root))?;
-    while json_chunk.len() % 4 != 0 {
+    while !json_chunk.len().is_multiple_of(4) {
         json_chunk.push(b' ');
     }
     let bin_chunk = b.bin;

@@ -143,7 +143,7 @@ fn polygons(rings: Vec<Vec<DVec2>>) -> Vec<(Vec<DVec2>, Vec<Vec<DVec2>>)> {
 /// Round levels across `[z_min, z_max]`, strictly inside.
 fn automatic_levels(z_min: f64, z_max: f64) -> Vec<f64> {
     let span = z_max - z_min;
-    if !(span > 0.0) || !span.is_finite() {
+    if !span.is_finite() || span <= 0.0 {
         return Vec::new();
     }
     let raw = span / AUTOMATIC_LEVELS;
