@@ -8,7 +8,7 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 use serde_json::Value;
-use wellmesh::contour::{BodySummary, ContourResult, ShellSummary, Summary};
+use wellmesh::contour::{BodySummary, ContourResult, ShellSummary, Summary, UnknownMode};
 use wellmesh::dmt::{Body, Quality, Shell, ShellCounts};
 use wellmesh::export::{
     ExportError, Levels, OutputOptions, all_outputs, enu_frame, geojson_levels, glb, obj,
@@ -184,6 +184,9 @@ fn result(shells: Vec<(f64, Vec<Body>)>, crs: Option<&str>) -> ContourResult {
                     ],
                 })
                 .collect(),
+            counts: ShellCounts::default(),
+            quality: Quality::default(),
+            volume_range: None,
         })
         .collect();
     let summary = Summary {
@@ -191,8 +194,11 @@ fn result(shells: Vec<(f64, Vec<Body>)>, crs: Option<&str>) -> ContourResult {
         origin: ORIGIN,
         crs: crs.map(str::to_owned),
         unit: "m".to_owned(),
+        unknown: UnknownMode::Drop,
+        binary: false,
         counts: serde_json::Map::new(),
         shells: shell_summaries,
+        warnings: Vec::new(),
     };
     ContourResult {
         summary,
@@ -557,12 +563,12 @@ fn the_tileset_places_the_origin_at_its_utm_position_on_the_globe() {
 #[test]
 fn the_tileset_points_at_the_glb_and_bounds_the_bodies() {
     let result = nested();
-    let bytes = tileset_json(&result, "wellmesh.glb").unwrap();
+    let bytes = tileset_json(&result, "nested.glb").unwrap();
     keep("tileset.json", &bytes);
     let tileset: Value = serde_json::from_slice(&bytes).unwrap();
     assert_eq!(tileset["asset"]["version"], "1.1");
     let root = &tileset["root"];
-    assert_eq!(root["content"]["uri"], "wellmesh.glb");
+    assert_eq!(root["content"]["uri"], "nested.glb");
     let transform: Vec<f64> = serde_json::from_value(root["transform"].clone()).unwrap();
     let frame = enu_frame(ORIGIN, "EPSG:32633").unwrap();
     for (got, expected) in transform.iter().zip(frame.matrix) {
@@ -623,6 +629,7 @@ fn a_sphere_cut_at_its_equator_is_a_circle_of_the_right_area() {
     );
     let level = ORIGIN[2] + centre.z + 1e-3;
     let bytes = geojson_levels(&result, &Levels::At(vec![level])).unwrap();
+    keep("sphere-equator.geojson", &bytes);
     let geojson: Value = serde_json::from_slice(&bytes).unwrap();
     assert_eq!(
         geojson["crs"]["properties"]["name"],
@@ -658,6 +665,7 @@ fn a_hollow_sphere_cut_at_its_equator_is_a_ring_with_a_hole() {
     ]);
     let result = result(vec![(0.5, vec![hollow])], Some("EPSG:32633"));
     let bytes = geojson_levels(&result, &Levels::At(vec![ORIGIN[2] + 0.01])).unwrap();
+    keep("hollow-equator.geojson", &bytes);
     let geojson: Value = serde_json::from_slice(&bytes).unwrap();
     let polys = polygons(&geojson);
     assert_eq!(polys.len(), 1);
@@ -704,7 +712,9 @@ fn obj_and_vtu_hold_every_triangle() {
         .map(|b| b.triangles.len())
         .sum();
 
-    let text = String::from_utf8(obj(&result).unwrap()).unwrap();
+    let bytes = obj(&result).unwrap();
+    keep("nested.obj", &bytes);
+    let text = String::from_utf8(bytes).unwrap();
     assert_eq!(
         text.lines().filter(|l| l.starts_with("v ")).count(),
         vertices
@@ -721,7 +731,9 @@ fn obj_and_vtu_hold_every_triangle() {
         .max();
     assert_eq!(max_index, Some(vertices));
 
-    let text = String::from_utf8(vtu(&result).unwrap()).unwrap();
+    let bytes = vtu(&result).unwrap();
+    keep("nested.vtu", &bytes);
+    let text = String::from_utf8(bytes).unwrap();
     assert!(text.contains(&format!(
         r#"NumberOfPoints="{vertices}" NumberOfCells="{triangles}""#
     )));
