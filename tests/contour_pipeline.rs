@@ -53,11 +53,10 @@ fn wells(
             }
         }
     }
-    let (lo, hi) = world
-        .iter()
-        .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), p| {
-            (lo.min(*p), hi.max(*p))
-        });
+    let (lo, hi) = world.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
     let origin = (lo + hi) / 2.0;
     let unknown_values = values.iter().filter(|v| v.is_none()).count();
     SampleSet {
@@ -125,8 +124,11 @@ fn ellipsoid_area(a: f64, b: f64, c: f64) -> f64 {
 #[test]
 fn an_ellipsoid_grade_body_from_utm_wells_is_one_closed_body_with_the_right_volume() {
     let samples = wells(17, 25.0, 2.0, 0.0, -240.0, 7, |p| Some(ellipsoid_grade(p)));
-    let result = contour::run(&request(samples, vec![0.0], Some(Method::Dmt(Placement::Ibc))), &NoProgress)
-        .expect("contour");
+    let result = contour::run(
+        &request(samples, vec![0.0], Some(Method::Dmt(Placement::Ibc))),
+        &NoProgress,
+    )
+    .expect("contour");
     assert_eq!(result.shells.len(), 1);
     let shell = &result.shells[0];
     assert_eq!(shell.bodies.len(), 1, "one body");
@@ -138,8 +140,16 @@ fn an_ellipsoid_grade_body_from_utm_wells_is_one_closed_body_with_the_right_volu
     let dv = (body.volume - exact_volume) / exact_volume;
     let da = (body.area - exact_area) / exact_area;
     eprintln!("volume error {dv:+.4}, area error {da:+.4}");
-    assert!(dv.abs() < 0.03, "volume {} vs exact {exact_volume} ({dv:+.4})", body.volume);
-    assert!(da.abs() < 0.05, "area {} vs exact {exact_area} ({da:+.4})", body.area);
+    assert!(
+        dv.abs() < 0.03,
+        "volume {} vs exact {exact_volume} ({dv:+.4})",
+        body.volume
+    );
+    assert!(
+        da.abs() < 0.05,
+        "area {} vs exact {exact_area} ({da:+.4})",
+        body.area
+    );
     // The summary is in input (world) coordinates.
     let s = &result.summary.shells[0];
     assert_eq!(s.bodies[0].volume, body.volume);
@@ -164,7 +174,10 @@ fn binary_wells_give_a_closed_body_with_curvature_by_default() {
     let exact_volume = 4.0 / 3.0 * std::f64::consts::PI * AXES.x * AXES.y * AXES.z;
     let dv = (shell.bodies[0].volume - exact_volume) / exact_volume;
     eprintln!("binary volume error {dv:+.4}");
-    assert!(dv.abs() < 0.15, "binary data brackets the body only to the sample spacing: {dv}");
+    assert!(
+        dv.abs() < 0.15,
+        "binary data brackets the body only to the sample spacing: {dv}"
+    );
 }
 
 #[test]
@@ -184,11 +197,20 @@ fn a_body_cut_by_the_edge_of_the_drilling_is_capped_and_truncated() {
 #[test]
 fn nested_grade_shells_share_one_tetrahedralization_and_shrink_with_the_threshold() {
     let samples = wells(13, 25.0, 2.0, 0.0, -240.0, 3, |p| Some(ellipsoid_grade(p)));
-    let result = contour::run(&request(samples, vec![0.0, 0.5, 1.0], None), &NoProgress).expect("contour");
+    let result =
+        contour::run(&request(samples, vec![0.0, 0.5, 1.0], None), &NoProgress).expect("contour");
     let volumes: Vec<f64> = result.summary.shells.iter().map(|s| s.volume).collect();
     assert_eq!(volumes.len(), 3);
-    assert!(volumes[0] > volumes[1] && volumes[1] > volumes[2] && volumes[2] > 0.0, "{volumes:?}");
-    assert!(result.shells.iter().all(|s| s.bodies.iter().all(|b| b.closed)));
+    assert!(
+        volumes[0] > volumes[1] && volumes[1] > volumes[2] && volumes[2] > 0.0,
+        "{volumes:?}"
+    );
+    assert!(
+        result
+            .shells
+            .iter()
+            .all(|s| s.bodies.iter().all(|b| b.closed))
+    );
 }
 
 #[test]
@@ -206,21 +228,31 @@ fn unknown_bounds_bracket_the_answer() {
     assert_eq!(result.summary.counts["unknown_dropped"], unknown);
     let s = &result.summary.shells[0];
     let range = s.volume_range.as_ref().expect("bounds requested");
-    assert!(range.pessimistic <= s.volume && s.volume <= range.optimistic, "{range:?} vs {}", s.volume);
+    assert!(
+        range.pessimistic <= s.volume && s.volume <= range.optimistic,
+        "{range:?} vs {}",
+        s.volume
+    );
     assert!(range.pessimistic < range.optimistic);
 }
 
 #[test]
 fn anisotropy_is_inverted_on_output() {
     let samples = wells(13, 25.0, 2.0, 0.0, -240.0, 4, |p| Some(ellipsoid_grade(p)));
-    let plain = contour::run(&request(samples.clone(), vec![0.0], None), &NoProgress).expect("contour");
+    let plain =
+        contour::run(&request(samples.clone(), vec![0.0], None), &NoProgress).expect("contour");
     let mut req = request(samples, vec![0.0], None);
     req.anisotropy = Some(DVec3::new(1.0, 1.0, 5.0));
     let stretched = contour::run(&req, &NoProgress).expect("contour");
     let (a, b) = (&plain.shells[0].bodies[0], &stretched.shells[0].bodies[0]);
     assert!(b.closed);
     // Same body in the same place, whichever frame the mesh was built in.
-    assert!(((a.volume - b.volume) / a.volume).abs() < 0.05, "{} vs {}", a.volume, b.volume);
+    assert!(
+        ((a.volume - b.volume) / a.volume).abs() < 0.05,
+        "{} vs {}",
+        a.volume,
+        b.volume
+    );
     assert!((a.bbox[0] - b.bbox[0]).length() < 15.0 && (a.bbox[1] - b.bbox[1]).length() < 15.0);
 }
 

@@ -17,7 +17,12 @@ fn well_points(collars: &[(f64, f64)], step: f64, samples: usize) -> Vec<DVec3> 
 }
 
 fn placements() -> [Placement; 4] {
-    [Placement::Ibc, Placement::Coi, Placement::Midpoint, Placement::Curvature { lattice: 5 }]
+    [
+        Placement::Ibc,
+        Placement::Coi,
+        Placement::Midpoint,
+        Placement::Curvature { lattice: 5 },
+    ]
 }
 
 proptest! {

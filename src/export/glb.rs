@@ -259,14 +259,20 @@ pub fn glb(result: &ContourResult, options: &OutputOptions) -> Result<Vec<u8>, E
         let mut indices = Vec::new();
         let mut ids = Vec::new();
         for well in &samples.wells {
-            if well.trace.len() < 2 || well.trace.iter().any(|p| !p.is_finite()) {
+            if well.trace.iter().any(|p| !p.is_finite()) {
+                continue;
+            }
+            // Repeated stations would make zero-length segments.
+            let mut trace: Vec<[f32; 3]> = well.trace.iter().map(|&p| to_gltf(p)).collect();
+            trace.dedup();
+            if trace.len() < 2 {
                 continue;
             }
             let first = positions.len() as u32;
-            positions.extend(well.trace.iter().map(|&p| to_gltf(p)));
-            for k in 1..well.trace.len() as u32 {
+            for k in 1..trace.len() as u32 {
                 indices.extend([first + k - 1, first + k]);
             }
+            positions.extend(trace);
             ids.push(well.id.clone());
         }
         if !indices.is_empty() {
