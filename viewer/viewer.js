@@ -210,7 +210,12 @@ function showModel(gltf, summary) {
     if (object.isPoints) object.material.size = 4;
   });
   scene.add(model);
-  fitCamera(model);
+  // Samples can hide the bodies on dense drilling: off until asked for.
+  for (const node of model.children) {
+    if (node.userData?.name === 'samples') node.visible = false;
+  }
+  const shells = model.children.filter((n) => n.userData?.shell !== undefined);
+  fitCamera(shells.length ? shells : [model]);
   buildLayers(model);
   buildLegend(summary ?? null, model);
   overlay(null);
@@ -218,8 +223,9 @@ function showModel(gltf, summary) {
   setState('loaded');
 }
 
-function fitCamera(object) {
-  const box = new THREE.Box3().setFromObject(object);
+function fitCamera(objects) {
+  const box = new THREE.Box3();
+  for (const object of objects) box.expandByObject(object);
   if (box.isEmpty()) return;
   const centre = box.getCenter(new THREE.Vector3());
   const radius = Math.max(box.getSize(new THREE.Vector3()).length() / 2, 1);

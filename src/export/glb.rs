@@ -279,7 +279,7 @@ pub fn glb(result: &ContourResult, options: &OutputOptions) -> Result<Vec<u8>, E
             materials.push(json!({
                 "name": "drill holes",
                 "pbrMetallicRoughness": {
-                    "baseColorFactor": [0.8, 0.8, 0.75, 1.0],
+                    "baseColorFactor": [0.6, 0.6, 0.55, 1.0],
                     "metallicFactor": 0.0,
                     "roughnessFactor": 1.0,
                 },

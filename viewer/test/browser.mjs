@@ -1,7 +1,9 @@
 // Real-browser test of the viewer: headless Chromium (Debian's /usr/bin/chromium, driven by
 // playwright-core) opens BASE_URL/viewer?job=JOB_ID, waits until the job's GLB has loaded
 // through three.js' GLTFLoader, fails on any console error, page error or failed request,
-// takes a screenshot, and checks by pixels that the body is visible.
+// shows only the shells (drill holes and samples toggled off), takes a screenshot and checks
+// by pixels that the bodies are visible, then toggles the shells off and checks that the
+// view is empty.
 //
 // Usage: node viewer/test/browser.mjs BASE_URL JOB_ID OUT.png
 // Environment: CHROMIUM (default /usr/bin/chromium), VIEWER_TIMEOUT_MS (default 120000).
@@ -20,6 +22,37 @@ const timeout = Number(process.env.VIEWER_TIMEOUT_MS ?? 120000);
 // The viewer's clear colour (viewer.js BACKGROUND).
 const BACKGROUND = [0x1d, 0x21, 0x26];
 const MIN_BODY_SHARE = 0.02;
+const MAX_EMPTY_SHARE = 0.002;
+
+// Decodes a screenshot with the browser's own PNG decoder and counts the pixels that differ
+// from the background.
+async function countModelPixels(page, png) {
+  const { total, differing } = await page.evaluate(
+    async ({ b64, background }) => {
+      const image = new Image();
+      image.src = `data:image/png;base64,${b64}`;
+      await image.decode();
+      const c = document.createElement('canvas');
+      c.width = image.width;
+      c.height = image.height;
+      const ctx = c.getContext('2d');
+      ctx.drawImage(image, 0, 0);
+      const { data } = ctx.getImageData(0, 0, c.width, c.height);
+      let count = 0;
+      for (let i = 0; i < data.length; i += 4) {
+        const d = Math.max(
+          Math.abs(data[i] - background[0]),
+          Math.abs(data[i + 1] - background[1]),
+          Math.abs(data[i + 2] - background[2]),
+        );
+        if (d > 24) count += 1;
+      }
+      return { total: c.width * c.height, differing: count };
+    },
+    { b64: png.toString('base64'), background: BACKGROUND },
+  );
+  return { total, differing, share: differing / total };
+}
 
 const problems = [];
 const userDataDir = await mkdtemp(join(tmpdir(), 'wellmesh-chromium-'));
@@ -67,43 +100,40 @@ try {
   // Let a few frames render after the load.
   await page.waitForTimeout(500);
 
-  const canvas = page.locator('#canvas');
-  const png = await canvas.screenshot({ timeout });
-  await writeFile(outPng, png);
-  // Decode the screenshot with the browser's own PNG decoder and count pixels that differ
-  // from the background.
-  const pixels = await page.evaluate(
-    async ({ b64, background }) => {
-      const image = new Image();
-      image.src = `data:image/png;base64,${b64}`;
-      await image.decode();
-      const c = document.createElement('canvas');
-      c.width = image.width;
-      c.height = image.height;
-      const ctx = c.getContext('2d');
-      ctx.drawImage(image, 0, 0);
-      const { data } = ctx.getImageData(0, 0, c.width, c.height);
-      let differing = 0;
-      for (let i = 0; i < data.length; i += 4) {
-        const d = Math.max(
-          Math.abs(data[i] - background[0]),
-          Math.abs(data[i + 1] - background[1]),
-          Math.abs(data[i + 2] - background[2]),
-        );
-        if (d > 24) differing += 1;
-      }
-      return { total: c.width * c.height, differing };
-    },
-    { b64: png.toString('base64'), background: BACKGROUND },
-  );
-  const share = pixels.differing / pixels.total;
-  console.log(
-    `viewer: ${state.meshes} meshes; ${pixels.differing} of ${pixels.total} pixels ` +
-      `(${(100 * share).toFixed(1)}%) differ from the background; screenshot ${outPng}`,
-  );
-  if (share < MIN_BODY_SHARE) {
-    problems.push(`blank view: only ${(100 * share).toFixed(2)}% of pixels show the model`);
+  // Only the shells: hide drill holes and samples, so the pixels counted are the bodies'.
+  const layers = page.locator('#layer-list li');
+  const shellBoxes = [];
+  for (let i = 0; i < (await layers.count()); i += 1) {
+    const item = layers.nth(i);
+    const box = item.locator('input[type=checkbox]');
+    if ((await item.innerText()).trim().startsWith('shell')) shellBoxes.push(box);
+    else await box.setChecked(false);
   }
+  if (shellBoxes.length === 0) problems.push('no shell layers in the layer list');
+
+  const canvas = page.locator('#canvas');
+  const modelShare = async () => {
+    await page.waitForTimeout(300);
+    const png = await canvas.screenshot({ timeout });
+    return { png, ...(await countModelPixels(page, png)) };
+  };
+  const shown = await modelShare();
+  await writeFile(outPng, shown.png);
+  console.log(
+    `viewer: ${state.meshes} meshes; ${shown.differing} of ${shown.total} pixels ` +
+      `(${(100 * shown.share).toFixed(1)}%) show the shells; screenshot ${outPng}`,
+  );
+  if (shown.share < MIN_BODY_SHARE) {
+    problems.push(`blank view: only ${(100 * shown.share).toFixed(2)}% of pixels show the shells`);
+  }
+  // Toggling every shell off must leave the background: the pixels were the bodies'.
+  for (const box of shellBoxes) await box.setChecked(false);
+  const hidden = await modelShare();
+  console.log(`with the shells toggled off: ${(100 * hidden.share).toFixed(2)}% of pixels differ`);
+  if (hidden.share > MAX_EMPTY_SHARE) {
+    problems.push(`toggling the shells off left ${(100 * hidden.share).toFixed(2)}% of pixels drawn`);
+  }
+  for (const box of shellBoxes) await box.setChecked(true);
 } catch (err) {
   problems.push(`browser test: ${err.message}`);
 } finally {
