@@ -176,6 +176,140 @@ mod tests {
             .map(|c| c.outputs)
     }
 
+    /// A result holding one tetrahedron body at UTM coordinates.
+    fn tetrahedron_result(crs: Option<&str>) -> ContourResult {
+        use glam::DVec3;
+        use wellmesh::contour::{BodySummary, ShellSummary, Summary, UnknownMode};
+        use wellmesh::dmt::{Body, Quality, Shell, ShellCounts};
+        use wellmesh::wells::{ReadReport, SampleSet};
+
+        let origin = DVec3::new(500_000.0, 7_000_000.0, 300.0);
+        let positions = vec![
+            DVec3::ZERO,
+            DVec3::new(10.0, 0.0, 0.0),
+            DVec3::new(0.0, 10.0, 0.0),
+            DVec3::new(0.0, 0.0, 10.0),
+        ];
+        let body = Body {
+            positions,
+            triangles: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+            volume: 1000.0 / 6.0,
+            area: 150.0 + 50.0 * 3f64.sqrt(),
+            closed: true,
+            truncated: false,
+            bbox: [DVec3::ZERO, DVec3::splat(10.0)],
+        };
+        let body_summary = BodySummary {
+            volume: body.volume,
+            area: body.area,
+            closed: true,
+            truncated: false,
+            bbox: [origin.to_array(), (origin + 10.0).to_array()],
+        };
+        ContourResult {
+            summary: Summary {
+                method: "ibc".into(),
+                origin: origin.to_array(),
+                crs: crs.map(str::to_owned),
+                unit: "m".into(),
+                unknown: UnknownMode::Drop,
+                binary: true,
+                counts: serde_json::Map::new(),
+                shells: vec![ShellSummary {
+                    threshold: 0.5,
+                    volume: body.volume,
+                    area: body.area,
+                    bodies: vec![body_summary],
+                    counts: ShellCounts::default(),
+                    quality: Quality::default(),
+                    volume_range: None,
+                }],
+                warnings: Vec::new(),
+            },
+            shells: vec![Shell {
+                threshold: 0.5,
+                bodies: vec![body],
+                counts: ShellCounts::default(),
+                quality: Quality::default(),
+            }],
+            samples: SampleSet {
+                origin,
+                crs: crs.map(str::to_owned),
+                unit: "m".into(),
+                wells: Vec::new(),
+                points: Vec::new(),
+                values: Vec::new(),
+                well_of: Vec::new(),
+                report: ReadReport::default(),
+            },
+        }
+    }
+
+    fn scratch_dir(name: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("wellmesh-outputs-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        dir
+    }
+
+    #[test]
+    fn write_puts_every_requested_file_where_asked() {
+        let dir = scratch_dir("all");
+        let d = |f: &str| dir.join(f).to_string_lossy().into_owned();
+        let args = parse(&[
+            "-o",
+            &d("model/body.glb"),
+            "--summary",
+            &d("summary.json"),
+            "--tileset",
+            &d("tiles"),
+            "--geojson",
+            &d("plans.geojson"),
+            "--levels",
+            "305",
+            "--obj",
+            &d("body.obj"),
+            "--vtu",
+            &d("body.vtu"),
+        ])
+        .unwrap();
+        args.write(&tetrahedron_result(Some("EPSG:32633"))).unwrap();
+        for f in [
+            "model/body.glb",
+            "summary.json",
+            "tiles/tileset.json",
+            "plans.geojson",
+            "body.obj",
+            "body.vtu",
+        ] {
+            assert!(dir.join(f).is_file(), "{f} missing");
+        }
+        let tileset: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join("tiles/tileset.json")).unwrap())
+                .unwrap();
+        assert_eq!(tileset["root"]["content"]["uri"], "../model/body.glb");
+        let plans: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join("plans.geojson")).unwrap()).unwrap();
+        assert_eq!(plans["features"].as_array().unwrap().len(), 1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_tileset_without_a_crs_fails_before_any_file_is_written() {
+        let dir = scratch_dir("nocrs");
+        let glb = dir.join("body.glb");
+        let args = parse(&[
+            "-o",
+            glb.to_str().unwrap(),
+            "--tileset",
+            dir.to_str().unwrap(),
+        ])
+        .unwrap();
+        let err = args.write(&tetrahedron_result(None)).unwrap_err();
+        assert!(format!("{err:#}").contains("no CRS"), "{err:#}");
+        assert!(!glb.exists());
+    }
+
     #[test]
     fn the_glb_is_required_and_levels_need_a_geojson() {
         assert!(parse(&[]).is_err());
