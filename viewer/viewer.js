@@ -315,11 +315,23 @@ function buildLegend(summary, root) {
     rows.append(head);
     shell.bodies.forEach((body, b) => {
       const row = document.createElement('tr');
+      const bodyNode = shellNode?.children.find((n) => n.userData?.body === b + 1);
+      const toggle = cell('');
+      if (bodyNode) {
+        const box = document.createElement('input');
+        box.type = 'checkbox';
+        box.checked = bodyNode.visible;
+        box.title = `show shell ${s + 1} body ${b + 1}`;
+        box.addEventListener('change', () => {
+          bodyNode.visible = box.checked;
+        });
+        toggle.append(box);
+      }
       const flags = [body.closed ? '' : 'open', body.truncated ? 'truncated' : '']
         .filter(Boolean)
         .join(', ');
       row.append(
-        cell(''),
+        toggle,
         cell(`${b + 1}`),
         cell(`${formatNumber(body.volume)} ${unit}³`),
         cell(`${formatNumber(body.area)} ${unit}²`),

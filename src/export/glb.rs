@@ -218,20 +218,20 @@ pub fn glb(result: &ContourResult, options: &OutputOptions) -> Result<Vec<u8>, E
                 "truncated": body_summary.truncated,
                 "bbox": body_summary.bbox,
             });
-            let mut primitive = json!({ "mode": MODE_TRIANGLES, "material": material_index });
-            if !positions.is_empty() {
+            let mut node = json!({ "name": name, "extras": extras });
+            // A body without triangles keeps its node (and figures) but has nothing to draw.
+            if !indices.is_empty() {
                 let position = b.vec3(&positions, true);
                 let normal = b.vec3(&normals, false);
-                primitive["attributes"] = json!({ "POSITION": position, "NORMAL": normal });
-                if !indices.is_empty() {
-                    primitive["indices"] = json!(b.indices(&indices));
-                }
-            }
-            let mut node = json!({ "name": name, "extras": extras });
-            if primitive.get("attributes").is_some() {
+                let index = b.indices(&indices);
                 meshes.push(json!({
                     "name": name,
-                    "primitives": [primitive],
+                    "primitives": [{
+                        "attributes": { "POSITION": position, "NORMAL": normal },
+                        "indices": index,
+                        "mode": MODE_TRIANGLES,
+                        "material": material_index,
+                    }],
                     "extras": extras,
                 }));
                 node["mesh"] = json!(meshes.len() - 1);
