@@ -774,3 +774,54 @@ fn all_outputs_lists_each_format_with_its_media_type() {
     let outputs = all_outputs(&result_without_crs(), &OutputOptions::default()).unwrap();
     assert!(outputs.iter().all(|o| o.id != "tileset"));
 }
+
+/// Timing of every exporter on icospheres of 327,680 and 1,310,720 triangles (printed, not
+/// asserted: timings are measurements, not test conditions). Run with
+/// `cargo test --test export_outputs -- --ignored --nocapture export_timing`.
+#[test]
+#[ignore = "measurement: prints timings of large exports"]
+fn export_timing() {
+    for levels in [7u32, 8] {
+        let result = result(
+            vec![(
+                0.5,
+                vec![body(&[icosphere(DVec3::ZERO, 500.0, levels, false)])],
+            )],
+            Some("EPSG:32633"),
+        );
+        let triangles = result.shells[0].bodies[0].triangles.len();
+        let time = |f: &dyn Fn() -> Vec<u8>| {
+            let start = std::time::Instant::now();
+            let bytes = f();
+            (start.elapsed().as_secs_f64(), bytes)
+        };
+        let (t_glb, g) = time(&|| glb(&result, &OutputOptions::default()).unwrap());
+        let (t_geojson, j) = time(&|| geojson_levels(&result, &Levels::Automatic).unwrap());
+        let (t_obj, o) = time(&|| obj(&result).unwrap());
+        let (t_vtu, v) = time(&|| vtu(&result).unwrap());
+        let (t_tileset, _) = time(&|| tileset_json(&result, "glb").unwrap());
+        // What was timed is a real output: the GLB holds every triangle.
+        let (document, buffers, _) = gltf::import_slice(&g).unwrap();
+        let primitive = document
+            .meshes()
+            .next()
+            .unwrap()
+            .primitives()
+            .next()
+            .unwrap();
+        let reader = primitive.reader(|b| Some(&buffers[b.index()]));
+        assert_eq!(
+            reader.read_indices().unwrap().into_u32().count(),
+            3 * triangles
+        );
+        println!(
+            "{triangles} triangles: glb {t_glb:.3} s ({:.1} MB), geojson {t_geojson:.3} s \
+             ({:.1} MB), obj {t_obj:.3} s ({:.1} MB), vtu {t_vtu:.3} s ({:.1} MB), \
+             tileset {t_tileset:.4} s",
+            g.len() as f64 / 1e6,
+            j.len() as f64 / 1e6,
+            o.len() as f64 / 1e6,
+            v.len() as f64 / 1e6,
+        );
+    }
+}
