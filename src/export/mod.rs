@@ -9,6 +9,7 @@ mod georef;
 mod glb;
 mod levels;
 mod obj;
+pub mod tet_vtu;
 mod vtu;
 
 pub use georef::{EnuFrame, enu_frame, tileset_json};
