@@ -79,6 +79,7 @@ fn wells(
             rows_read: world.len(),
             unknown_values,
             warnings: vec![],
+            ..ReadReport::default()
         },
     }
 }

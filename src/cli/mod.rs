@@ -1,6 +1,8 @@
 //! Subcommands of the `wellmesh` binary, one file each.
 
 pub mod contour;
+pub mod input;
+pub mod inspect;
 pub mod outputs;
 pub mod tetrahedralize;
 
