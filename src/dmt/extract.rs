@@ -196,43 +196,45 @@ pub fn build(mesh: &TetMesh, marked: &[bool]) -> Topology {
             };
             let (c0, d0) = oriented_around(&tets[start as usize], a, b);
             let mut ring = Vec::with_capacity(8);
-            // Walk clockwise to the hull (or all the way round).
+            // Walk counter-clockwise from `start`; an interior edge closes the ring.
             let (mut t, mut c, mut d) = (start, c0, d0);
-            let mut open_start = None;
+            let mut end_face = None;
             loop {
-                let tv = &tets[t as usize];
-                let l = corner_index(tv, d);
-                let n = nb[t as usize][l];
+                ring.push(tet_vertex[t as usize]);
+                let k = corner_index(&tets[t as usize], c);
+                let n = nb[t as usize][k];
                 if n == NO_NEIGHBOUR {
-                    open_start = Some(t * 4 + l as u32);
+                    end_face = Some(t * 4 + k as u32);
                     break;
                 }
-                let (t2, e) = (n / 4, tets[(n / 4) as usize][(n % 4) as usize]);
-                (t, c, d) = (t2, e, c);
+                (t, c, d) = (n / 4, d, tets[(n / 4) as usize][(n % 4) as usize]);
                 if t == start {
                     break;
                 }
             }
-            // Walk counter-clockwise collecting DMT vertices.
-            let first = t;
-            loop {
-                ring.push(tet_vertex[t as usize]);
-                let tv = &tets[t as usize];
-                let k = corner_index(tv, c);
-                let n = nb[t as usize][k];
-                if n == NO_NEIGHBOUR {
-                    let end_face = t * 4 + k as u32;
-                    let start_face = open_start.expect("an open ring has two hull ends");
-                    ring.push(face_vertex[&end_face]);
-                    ring.push(edge_vertex[&edge_key(a, b)]);
-                    ring.push(face_vertex[&start_face]);
-                    break;
+            let mut open_start = None;
+            if let Some(end_face) = end_face {
+                // A hull edge: walk clockwise from `start` to the other hull face, then
+                // close the chain through W_f, U_e, W_f' (capping.md).
+                let mut before = Vec::new();
+                let (mut t, mut c, mut d) = (start, c0, d0);
+                loop {
+                    let l = corner_index(&tets[t as usize], d);
+                    let n = nb[t as usize][l];
+                    if n == NO_NEIGHBOUR {
+                        open_start = Some(t * 4 + l as u32);
+                        break;
+                    }
+                    (t, c, d) = (n / 4, tets[(n / 4) as usize][(n % 4) as usize], c);
+                    before.push(tet_vertex[t as usize]);
                 }
-                let (t2, e) = (n / 4, tets[(n / 4) as usize][(n % 4) as usize]);
-                (t, c, d) = (t2, d, e);
-                if t == first {
-                    break;
-                }
+                before.reverse();
+                before.extend_from_slice(&ring);
+                ring = before;
+                let start_face = open_start.expect("an open ring has two hull ends");
+                ring.push(face_vertex[&end_face]);
+                ring.push(edge_vertex[&edge_key(a, b)]);
+                ring.push(face_vertex[&start_face]);
             }
             let open = open_start.is_some();
             (ring, (a, b), open)

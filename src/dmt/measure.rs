@@ -7,6 +7,7 @@
 use std::collections::HashMap;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::Quality;
 
@@ -36,23 +37,41 @@ pub fn area(positions: &[DVec3], triangles: &[[u32; 3]]) -> f64 {
 /// `true` when every directed edge occurs exactly once and its reverse exactly once: a
 /// closed, consistently oriented surface (every edge in exactly two triangles).
 pub fn is_closed_and_oriented(triangles: &[[u32; 3]]) -> bool {
-    let mut directed: HashMap<(u32, u32), u32> = HashMap::with_capacity(triangles.len() * 3);
+    // Outgoing directed edges grouped by source vertex (counting sort), then every edge
+    // a -> b must be unique among a's and have exactly one reverse among b's.
+    let vertex_count = triangles
+        .iter()
+        .flatten()
+        .max()
+        .map_or(0, |&m| m as usize + 1);
+    let mut start = vec![0u32; vertex_count + 1];
     for t in triangles {
-        for k in 0..3 {
-            let e = (t[k], t[(k + 1) % 3]);
-            if e.0 == e.1 {
-                return false;
-            }
-            let n = directed.entry(e).or_insert(0);
-            *n += 1;
-            if *n > 1 {
-                return false;
-            }
+        for &v in t {
+            start[v as usize + 1] += 1;
         }
     }
-    directed
-        .keys()
-        .all(|&(a, b)| directed.contains_key(&(b, a)))
+    for i in 0..vertex_count {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut targets = vec![0u32; triangles.len() * 3];
+    for t in triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            if a == b {
+                return false;
+            }
+            targets[fill[a as usize] as usize] = b;
+            fill[a as usize] += 1;
+        }
+    }
+    let out = |v: u32| &targets[start[v as usize] as usize..start[v as usize + 1] as usize];
+    (0..vertex_count as u32).into_par_iter().all(|a| {
+        let mine = out(a);
+        mine.iter().enumerate().all(|(i, &b)| {
+            !mine[..i].contains(&b) && out(b).iter().filter(|&&x| x == a).count() == 1
+        })
+    })
 }
 
 /// Axis-aligned bounds `[min, max]` of the points.
@@ -65,15 +84,21 @@ pub fn bbox(positions: &[DVec3]) -> [DVec3; 2] {
 
 /// Smallest interior angle of a triangle, in degrees (0 for a degenerate one).
 pub fn min_angle_deg(a: DVec3, b: DVec3, c: DVec3) -> f64 {
-    let angle = |p: DVec3, q: DVec3, r: DVec3| {
-        let (u, v) = (q - p, r - p);
-        let (lu, lv) = (u.length(), v.length());
-        if lu == 0.0 || lv == 0.0 {
-            return 0.0;
-        }
-        (u.dot(v) / (lu * lv)).clamp(-1.0, 1.0).acos().to_degrees()
+    // The smallest angle is opposite the shortest edge.
+    let (ab, bc, ca) = (
+        (b - a).length_squared(),
+        (c - b).length_squared(),
+        (a - c).length_squared(),
+    );
+    let (apex, p, q) = if bc <= ab && bc <= ca {
+        (a, b, c)
+    } else if ca <= ab {
+        (b, c, a)
+    } else {
+        (c, a, b)
     };
-    angle(a, b, c).min(angle(b, c, a)).min(angle(c, a, b))
+    let (u, v) = (p - apex, q - apex);
+    u.cross(v).length().atan2(u.dot(v)).to_degrees()
 }
 
 /// Triangle quality over several meshes.
@@ -184,6 +209,14 @@ mod tests {
         let (_, mut t) = cube();
         t.pop();
         assert!(!is_closed_and_oriented(&t));
+    }
+
+    #[test]
+    fn the_smallest_angle_is_found_whatever_the_corner_order() {
+        let (a, b, c) = (DVec3::ZERO, DVec3::X, DVec3::new(0.0, 3f64.sqrt(), 0.0));
+        for (p, q, r) in [(a, b, c), (b, c, a), (c, a, b), (a, c, b)] {
+            assert!((min_angle_deg(p, q, r) - 30.0).abs() < 1e-9);
+        }
     }
 
     #[test]

@@ -9,6 +9,7 @@
 pub mod curvature;
 pub mod extract;
 pub mod measure;
+pub mod mt;
 pub mod place;
 
 use glam::DVec3;
@@ -365,35 +366,40 @@ fn triangulate(
 /// largest volume first.
 fn split_bodies(topo: &Topology, positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<Body> {
     let groups = measure::components(positions.len(), triangles);
-    let mut bodies: Vec<Body> = groups
-        .par_iter()
+    // Compact vertex numbering per body; bodies share no vertex, so one map serves all.
+    let mut local = vec![u32::MAX; positions.len()];
+    let parts: Vec<(Vec<DVec3>, Vec<[u32; 3]>, bool)> = groups
+        .iter()
         .map(|group| {
-            let mut local: std::collections::HashMap<u32, u32> = std::collections::HashMap::new();
             let mut body_positions = Vec::new();
             let mut truncated = false;
-            let body_triangles: Vec<[u32; 3]> = group
+            let body_triangles = group
                 .iter()
                 .map(|&t| {
                     triangles[t as usize].map(|v| {
-                        *local.entry(v).or_insert_with(|| {
-                            if (v as usize) < topo.roles.len() && (v as usize) >= topo.active_tets {
-                                truncated = true;
-                            }
+                        if local[v as usize] == u32::MAX {
+                            let role = topo.roles.get(v as usize);
+                            truncated |= role.is_some_and(|r| !matches!(r, VertexRole::Tet { .. }));
+                            local[v as usize] = body_positions.len() as u32;
                             body_positions.push(positions[v as usize]);
-                            body_positions.len() as u32 - 1
-                        })
+                        }
+                        local[v as usize]
                     })
                 })
                 .collect();
-            Body {
-                volume: measure::volume(&body_positions, &body_triangles),
-                area: measure::area(&body_positions, &body_triangles),
-                closed: measure::is_closed_and_oriented(&body_triangles),
-                truncated,
-                bbox: measure::bbox(&body_positions),
-                positions: body_positions,
-                triangles: body_triangles,
-            }
+            (body_positions, body_triangles, truncated)
+        })
+        .collect();
+    let mut bodies: Vec<Body> = parts
+        .into_par_iter()
+        .map(|(positions, triangles, truncated)| Body {
+            volume: measure::volume(&positions, &triangles),
+            area: measure::area(&positions, &triangles),
+            closed: measure::is_closed_and_oriented(&triangles),
+            truncated,
+            bbox: measure::bbox(&positions),
+            positions,
+            triangles,
         })
         .collect();
     bodies.sort_by(|a, b| b.volume.total_cmp(&a.volume));

@@ -257,3 +257,59 @@ fn bad_values_are_rejected() {
         Err(DmtError::NonFinite(3))
     ));
 }
+
+/// Timing on a 6.7M-tetrahedron grid mesh: `cargo test --release --lib dmt::tests::timing -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn timing_on_a_large_grid() {
+    let mesh = grid_mesh(104, -1.0, 1.0);
+    let values = sphere_values(&mesh, DVec3::new(0.01, 0.02, 0.03), 0.8);
+    eprintln!("tets {}", mesh.tets.len());
+    for placement in all_placements() {
+        let t0 = std::time::Instant::now();
+        let shell = extract_shell(
+            &mesh,
+            &values,
+            0.0,
+            placement,
+            Triangulation::Star,
+            &NoProgress,
+        )
+        .unwrap();
+        eprintln!(
+            "{placement:?}: {:.3} s, active tets {}, triangles {}",
+            t0.elapsed().as_secs_f64(),
+            shell.counts.active_tets,
+            shell.quality.triangles
+        );
+    }
+}
+
+#[test]
+#[ignore]
+fn timing_measures() {
+    let mesh = grid_mesh(104, -1.0, 1.0);
+    let values = sphere_values(&mesh, DVec3::new(0.01, 0.02, 0.03), 0.8);
+    let shell = extract_shell(
+        &mesh,
+        &values,
+        0.0,
+        Placement::Ibc,
+        Triangulation::Star,
+        &NoProgress,
+    )
+    .unwrap();
+    let b = &shell.bodies[0];
+    for _ in 0..2 {
+        let t0 = std::time::Instant::now();
+        let c = measure::is_closed_and_oriented(&b.triangles);
+        eprintln!("closed {c} {:?}", t0.elapsed());
+        let t0 = std::time::Instant::now();
+        let v = measure::volume(&b.positions, &b.triangles);
+        let a = measure::area(&b.positions, &b.triangles);
+        eprintln!("va {v} {a} {:?}", t0.elapsed());
+        let t0 = std::time::Instant::now();
+        let q = measure::quality([(b.positions.as_slice(), b.triangles.as_slice())]);
+        eprintln!("q {q:?} {:?}", t0.elapsed());
+    }
+}
