@@ -2,7 +2,7 @@
 //! what a geologist relies on (one closed body, honest volume and area).
 
 use glam::DVec3;
-use wellmesh::contour::{self, ContourRequest, UnknownMode};
+use wellmesh::contour::{self, Anisotropy, ContourRequest, UnknownMode};
 use wellmesh::dmt::{Method, Placement};
 use wellmesh::progress::NoProgress;
 use wellmesh::wells::{ReadReport, SampleSet, Well};
@@ -86,12 +86,8 @@ fn wells(
 
 fn request(samples: SampleSet, thresholds: Vec<f64>, method: Option<Method>) -> ContourRequest {
     ContourRequest {
-        samples,
-        thresholds,
         method,
-        unknown: UnknownMode::Drop,
-        anisotropy: None,
-        min_volume: 0.0,
+        ..ContourRequest::new(samples, thresholds)
     }
 }
 
@@ -243,7 +239,7 @@ fn anisotropy_is_inverted_on_output() {
     let plain =
         contour::run(&request(samples.clone(), vec![0.0], None), &NoProgress).expect("contour");
     let mut req = request(samples, vec![0.0], None);
-    req.anisotropy = Some(DVec3::new(1.0, 1.0, 5.0));
+    req.anisotropy = Some(Anisotropy::scale(DVec3::new(1.0, 1.0, 5.0)));
     let stretched = contour::run(&req, &NoProgress).expect("contour");
     let (a, b) = (&plain.shells[0].bodies[0], &stretched.shells[0].bodies[0]);
     assert!(b.closed);
@@ -255,6 +251,48 @@ fn anisotropy_is_inverted_on_output() {
         b.volume
     );
     assert!((a.bbox[0] - b.bbox[0]).length() < 15.0 && (a.bbox[1] - b.bbox[1]).length() < 15.0);
+
+    // A rotated frame (azimuth 30, dip 20) maps back too.
+    let mut req = request(plain.samples.clone(), vec![0.0], None);
+    req.anisotropy = Some(Anisotropy {
+        scale: DVec3::new(0.5, 1.0, 2.0),
+        azimuth_deg: 30.0,
+        dip_deg: 20.0,
+    });
+    let rotated = contour::run(&req, &NoProgress).expect("contour");
+    let c = &rotated.shells[0].bodies[0];
+    assert!(c.closed);
+    assert!(
+        ((a.volume - c.volume) / a.volume).abs() < 0.05,
+        "{} vs {}",
+        a.volume,
+        c.volume
+    );
+    assert!((a.bbox[0] - c.bbox[0]).length() < 15.0 && (a.bbox[1] - c.bbox[1]).length() < 15.0);
+}
+
+#[test]
+fn the_anisotropy_matrix_is_a_rotation_then_a_scale() {
+    let m = Anisotropy::scale(DVec3::new(2.0, 3.0, 4.0)).matrix();
+    assert!((m * DVec3::new(1.0, 1.0, 1.0) - DVec3::new(2.0, 3.0, 4.0)).length() < 1e-12);
+    let r = Anisotropy {
+        scale: DVec3::ONE,
+        azimuth_deg: 0.0,
+        dip_deg: 0.0,
+    }
+    .matrix();
+    // Azimuth 0 is north: north becomes the first axis.
+    assert!((r * DVec3::Y - DVec3::X).length() < 1e-12);
+    assert!((r.determinant() - 1.0).abs() < 1e-12);
+    let d = Anisotropy {
+        scale: DVec3::ONE,
+        azimuth_deg: 90.0,
+        dip_deg: 30.0,
+    }
+    .matrix();
+    // Dipping 30 degrees: a line going north and down 30 degrees becomes horizontal.
+    let down_dip = DVec3::new(0.0, 30f64.to_radians().cos(), -30f64.to_radians().sin());
+    assert!((d * down_dip - DVec3::Y).length() < 1e-12);
 }
 
 #[test]

@@ -197,7 +197,7 @@ impl<'a> Builder<'a> {
         b.start(first);
         let total = pts.len();
         for v in 0..total as u32 {
-            if v as usize % CHECK_EVERY == 0 {
+            if (v as usize).is_multiple_of(CHECK_EVERY) {
                 if progress.is_cancelled() {
                     return Err(TetError::Cancelled);
                 }
