@@ -266,22 +266,23 @@ fn shell(
             dmt::mt::shell(&data.mesh, &data.values, threshold, progress)?
         }
     };
-    if let Some(inverse) = inverse {
-        for body in &mut shell.bodies {
-            for p in &mut body.positions {
-                *p = inverse * *p;
-            }
-            body.volume = measure::volume(&body.positions, &body.triangles);
-            body.area = measure::area(&body.positions, &body.triangles);
-            body.bbox = measure::bbox(&body.positions);
+    // Output positions are what the GLB stores: f32 relative to the origin. Measures are
+    // taken from exactly those, so any reader of the GLB finds the summary's figures.
+    for body in &mut shell.bodies {
+        for p in &mut body.positions {
+            let q = inverse.map_or(*p, |m| m * *p);
+            *p = q.as_vec3().as_dvec3();
         }
-        shell.quality = measure::quality(
-            shell
-                .bodies
-                .iter()
-                .map(|b| (b.positions.as_slice(), b.triangles.as_slice())),
-        );
+        body.volume = measure::volume(&body.positions, &body.triangles);
+        body.area = measure::area(&body.positions, &body.triangles);
+        body.bbox = measure::bbox(&body.positions);
     }
+    shell.quality = measure::quality(
+        shell
+            .bodies
+            .iter()
+            .map(|b| (b.positions.as_slice(), b.triangles.as_slice())),
+    );
     shell.bodies.retain(|b| b.volume >= min_volume);
     Ok(shell)
 }
