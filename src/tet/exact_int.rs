@@ -240,12 +240,23 @@ mod tests {
 
     #[test]
     fn i256_arithmetic_matches_i128_where_both_apply() {
-        let vals = [0i128, 1, -1, 7, -123_456_789, i64::MAX as i128, i64::MIN as i128];
+        let vals = [
+            0i128,
+            1,
+            -1,
+            7,
+            -123_456_789,
+            i64::MAX as i128,
+            i64::MIN as i128,
+        ];
         for &x in &vals {
             for &y in &vals {
                 let p = I256::from_i128(x).mul_i128(y);
                 assert_eq!(p, I256::from_i128(x * y), "{x} * {y}");
-                assert_eq!(I256::from_i128(x).add(I256::from_i128(y)), I256::from_i128(x + y));
+                assert_eq!(
+                    I256::from_i128(x).add(I256::from_i128(y)),
+                    I256::from_i128(x + y)
+                );
                 assert_eq!(p.signum(), (x * y).signum() as i32);
             }
         }
