@@ -35,6 +35,10 @@ pub fn build(mut points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh,
     if let Some(index) = points.iter().position(|p| !p.is_finite()) {
         return Err(TetError::NonFinite { index });
     }
+    // -0.0 and 0.0 are one coordinate: make them one bit pattern before sorting.
+    for p in &mut points {
+        *p += DVec3::ZERO;
+    }
     let mut vertex_of_input = merge_duplicates(&mut points);
     let duplicates_merged = vertex_of_input.len() - points.len();
     if points.len() < 4 {
