@@ -17,6 +17,7 @@
 pub mod contour;
 pub mod dmt;
 pub mod export;
+pub mod grid;
 pub mod progress;
 pub mod tet;
 pub mod wells;

@@ -22,6 +22,8 @@ enum Command {
     Contour(cli::contour::Args),
     /// Delaunay-tetrahedralize a point file and print `points N tets T seconds S`.
     Tetrahedralize(cli::tetrahedralize::Args),
+    /// Report what was read from the inputs: holes, samples, ranges, what was dropped and why.
+    Inspect(Box<cli::inspect::Args>),
 }
 
 fn main() -> ExitCode {
@@ -29,6 +31,7 @@ fn main() -> ExitCode {
     let outcome = match cli.command {
         Command::Contour(args) => cli::contour::run(args),
         Command::Tetrahedralize(args) => cli::tetrahedralize::run(args),
+        Command::Inspect(args) => cli::inspect::run(*args),
     };
     match outcome {
         Ok(code) => code,

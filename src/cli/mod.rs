@@ -1,6 +1,10 @@
 //! Subcommands of the `wellmesh` binary, one file each.
 
 pub mod contour;
+pub mod grid_input;
+pub mod input;
+pub mod inspect;
+pub mod outputs;
 pub mod tetrahedralize;
 
 /// Exit code for an error the user can fix (bad input, bad arguments are clap's 2).
