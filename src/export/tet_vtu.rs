@@ -178,6 +178,9 @@ impl<W: Write> Write for Base64<W> {
             let g = self.carry;
             self.encode_group(g, 3);
             self.carried = 0;
+        } else if self.carried > 0 {
+            // `buf` ran out before a group was complete: keep the carry.
+            return Ok(written);
         }
         let mut groups = buf.chunks_exact(3);
         for g in &mut groups {
