@@ -4,7 +4,7 @@
 //! Invariant: the summary's volumes and areas are those of exactly the triangles in
 //! `ContourResult::shells`, which are what every exporter writes.
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 use serde::Serialize;
 
 use crate::dmt::{
@@ -34,10 +34,75 @@ pub struct ContourRequest {
     /// `None` picks the default: curvature for 0/1 data, IbC for grades.
     pub method: Option<Method>,
     pub unknown: UnknownMode,
-    /// Per-axis scale applied before tetrahedralizing and inverted on output.
-    pub anisotropy: Option<DVec3>,
+    /// Scale (and rotation) applied before tetrahedralizing and inverted on output.
+    pub anisotropy: Option<Anisotropy>,
+    /// A structured grid to contour instead of `samples` (which then only carries the
+    /// unit and a fallback CRS): its cells are split into tetrahedra, no Delaunay.
+    pub grid: Option<GridSource>,
     /// Bodies with a smaller volume are left out of the output.
     pub min_volume: f64,
+}
+
+impl ContourRequest {
+    /// A request with the defaults: method by data type, unknowns dropped, no
+    /// anisotropy, no grid, every body kept.
+    pub fn new(samples: SampleSet, thresholds: Vec<f64>) -> Self {
+        ContourRequest {
+            samples,
+            thresholds,
+            method: None,
+            unknown: UnknownMode::Drop,
+            anisotropy: None,
+            grid: None,
+            min_volume: 0.0,
+        }
+    }
+}
+
+/// A grid input and the cube split that turns it into tetrahedra.
+#[derive(Debug, Clone)]
+pub struct GridSource {
+    pub volume: crate::grid::GridVolume,
+    pub split: crate::grid::CubeSplit,
+}
+
+/// An anisotropic frame: ore bodies are long and flat, so distances along the direction of
+/// greatest continuity count less. Points are rotated into the frame whose first axis
+/// points along `azimuth_deg` (clockwise from north) and whose second axis is tilted down by
+/// `dip_deg` about the first, then scaled per axis; output is mapped back exactly.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Anisotropy {
+    pub scale: DVec3,
+    pub azimuth_deg: f64,
+    pub dip_deg: f64,
+}
+
+impl Anisotropy {
+    /// A pure per-axis scale of x, y, z (azimuth 90, dip 0: no rotation).
+    pub fn scale(scale: DVec3) -> Self {
+        Anisotropy {
+            scale,
+            azimuth_deg: 90.0,
+            dip_deg: 0.0,
+        }
+    }
+
+    /// The map from input (local) coordinates into the anisotropic frame.
+    pub fn matrix(&self) -> DMat3 {
+        let (a, d) = (self.azimuth_deg.to_radians(), self.dip_deg.to_radians());
+        let x = DVec3::new(a.sin(), a.cos(), 0.0);
+        let y0 = DVec3::new(-a.cos(), a.sin(), 0.0);
+        let y = y0 * d.cos() - DVec3::Z * d.sin();
+        let z = x.cross(y);
+        DMat3::from_diagonal(self.scale) * DMat3::from_cols(x, y, z).transpose()
+    }
+
+    fn is_valid(&self) -> bool {
+        self.scale.is_finite()
+            && self.scale.min_element() > 0.0
+            && self.azimuth_deg.is_finite()
+            && self.dip_deg.is_finite()
+    }
 }
 
 /// Per-body figures of the summary JSON (design.md contract), in input units.
@@ -112,8 +177,12 @@ pub enum ContourError {
     NoThresholds,
     #[error("threshold {0} is not a finite number")]
     BadThreshold(f64),
-    #[error("anisotropy: each scale factor must be a positive finite number, got {0}")]
-    BadAnisotropy(DVec3),
+    #[error(
+        "anisotropy: scale factors must be positive finite numbers and angles finite, got {0:?}"
+    )]
+    BadAnisotropy(Anisotropy),
+    #[error("grid: {0}")]
+    Grid(#[from] crate::grid::GridError),
     #[error("no samples with a known value (all {unknown} are \"don't know\")")]
     NoKnownSamples { unknown: usize },
     #[error("tetrahedralization: {0}")]
@@ -136,12 +205,12 @@ pub fn is_binary(values: &[Option<f64>]) -> bool {
     any
 }
 
-/// The method used when the request names none: curvature for 0/1 data, IbC for grades.
+/// The method used when the request names none: the midpoint rule for 0/1 data, IbC for
+/// grades. (The curvature placement, selectable, roughens surfaces on the long thin
+/// tetrahedra of drilling data: see docs/dmt.md for the measurements.)
 pub fn default_method(binary: bool) -> Method {
     if binary {
-        Method::Dmt(Placement::Curvature {
-            lattice: crate::dmt::DEFAULT_CURVATURE_LATTICE,
-        })
+        Method::Dmt(Placement::Midpoint)
     } else {
         Method::Dmt(Placement::Ibc)
     }
@@ -180,7 +249,7 @@ fn shell(
     data: &Classified,
     threshold: f64,
     method: Method,
-    scale: DVec3,
+    inverse: Option<DMat3>,
     min_volume: f64,
     progress: &dyn Progress,
 ) -> Result<Shell, ContourError> {
@@ -194,13 +263,13 @@ fn shell(
             progress,
         )?,
         Method::MarchingTetrahedra => {
-            dmt::marching_tetrahedra_shell(&data.mesh, &data.values, threshold, progress)?
+            dmt::mt::shell(&data.mesh, &data.values, threshold, progress)?
         }
     };
-    if scale != DVec3::ONE {
+    if let Some(inverse) = inverse {
         for body in &mut shell.bodies {
             for p in &mut body.positions {
-                *p /= scale;
+                *p = inverse * *p;
             }
             body.volume = measure::volume(&body.positions, &body.triangles);
             body.area = measure::area(&body.positions, &body.triangles);
@@ -251,7 +320,10 @@ pub fn run(
     progress: &dyn Progress,
 ) -> Result<ContourResult, ContourError> {
     let samples = &request.samples;
-    let binary = is_binary(&samples.values);
+    let binary = match &request.grid {
+        Some(g) => g.volume.values.iter().all(|&v| v == 0.0 || v == 1.0),
+        None => is_binary(&samples.values),
+    };
     let thresholds: Vec<f64> = if request.thresholds.is_empty() && binary {
         vec![0.5]
     } else {
@@ -263,25 +335,41 @@ pub fn run(
     if let Some(&t) = thresholds.iter().find(|t| !t.is_finite()) {
         return Err(ContourError::BadThreshold(t));
     }
-    let scale = request.anisotropy.unwrap_or(DVec3::ONE);
-    if !(scale.is_finite() && scale.min_element() > 0.0) {
-        return Err(ContourError::BadAnisotropy(scale));
-    }
+    let (forward, inverse) = match request.anisotropy {
+        Some(a) if !a.is_valid() => return Err(ContourError::BadAnisotropy(a)),
+        Some(a) => (a.matrix(), Some(a.matrix().inverse())),
+        None => (DMat3::IDENTITY, None),
+    };
     let method = request.method.unwrap_or_else(|| default_method(binary));
 
-    // The paper's rule: "don't know" samples are removed before tetrahedralizing.
-    let (points, values): (Vec<DVec3>, Vec<f64>) = samples
-        .points
-        .iter()
-        .zip(&samples.values)
-        .filter_map(|(p, v)| v.map(|v| (*p * scale, v)))
-        .unzip();
-    let unknown = samples.values.len() - values.len();
-    if values.is_empty() {
-        return Err(ContourError::NoKnownSamples { unknown });
-    }
     progress.report("tetrahedralize", 0.0);
-    let data = tetrahedralize(&points, &values, progress)?;
+    let (data, unknown) = match &request.grid {
+        Some(grid) => {
+            let mut mesh = crate::grid::tetrahedralize(&grid.volume, grid.split)?;
+            if inverse.is_some() {
+                for p in &mut mesh.points {
+                    *p = forward * *p;
+                }
+            }
+            let unknown = grid.volume.blanked.iter().filter(|&&b| b).count();
+            let values = grid.volume.values.clone();
+            (Classified { mesh, values }, unknown)
+        }
+        None => {
+            // The paper's rule: "don't know" samples are removed before tetrahedralizing.
+            let (points, values): (Vec<DVec3>, Vec<f64>) = samples
+                .points
+                .iter()
+                .zip(&samples.values)
+                .filter_map(|(p, v)| v.map(|v| (forward * *p, v)))
+                .unzip();
+            let unknown = samples.values.len() - values.len();
+            if values.is_empty() {
+                return Err(ContourError::NoKnownSamples { unknown });
+            }
+            (tetrahedralize(&points, &values, progress)?, unknown)
+        }
+    };
     progress.report("tetrahedralize", 1.0);
 
     let mut shells = Vec::with_capacity(thresholds.len());
@@ -289,23 +377,31 @@ pub fn run(
         if progress.is_cancelled() {
             return Err(ContourError::Cancelled);
         }
+        let min_volume = request.min_volume;
         shells.push(shell(
-            &data,
-            threshold,
-            method,
-            scale,
-            request.min_volume,
-            progress,
+            &data, threshold, method, inverse, min_volume, progress,
         )?);
     }
-    let origin = samples.origin;
+    let (origin, crs, warnings) = match &request.grid {
+        Some(g) => (
+            g.volume.origin,
+            g.volume.crs.clone().or_else(|| samples.crs.clone()),
+            g.volume.warnings.clone(),
+        ),
+        None => (
+            samples.origin,
+            samples.crs.clone(),
+            samples.report.warnings.clone(),
+        ),
+    };
     let mut shell_summaries: Vec<ShellSummary> =
         shells.iter().map(|s| shell_summary(s, origin)).collect();
 
     // Don't-know bounds: every sample tetrahedralized, unknowns taken as "no" then "yes".
-    if request.unknown == UnknownMode::Bounds && unknown > 0 {
-        let all_points: Vec<DVec3> = samples.points.iter().map(|p| *p * scale).collect();
-        let (lo, hi) = values
+    if request.unknown == UnknownMode::Bounds && unknown > 0 && request.grid.is_none() {
+        let all_points: Vec<DVec3> = samples.points.iter().map(|p| forward * *p).collect();
+        let (lo, hi) = data
+            .values
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
                 (lo.min(v), hi.max(v))
@@ -318,33 +414,31 @@ pub fn run(
             |fill: f64| -> Vec<f64> { samples.values.iter().map(|v| v.unwrap_or(fill)).collect() };
         let pessimistic = tetrahedralize(&all_points, &with(no), progress)?;
         let optimistic = tetrahedralize(&all_points, &with(yes), progress)?;
+        let min_volume = request.min_volume;
         for (summary, &threshold) in shell_summaries.iter_mut().zip(&thresholds) {
             let low = shell(
                 &pessimistic,
                 threshold,
                 method,
-                scale,
-                request.min_volume,
+                inverse,
+                min_volume,
                 progress,
             )?;
             let high = shell(
                 &optimistic,
                 threshold,
                 method,
-                scale,
-                request.min_volume,
+                inverse,
+                min_volume,
                 progress,
             )?;
             let volume = |s: &Shell| s.bodies.iter().map(|b| b.volume).sum::<f64>();
+            let bodies = |s: &Shell| s.bodies.iter().map(|b| body_summary(b, origin)).collect();
             summary.volume_range = Some(VolumeRange {
                 pessimistic: volume(&low),
                 optimistic: volume(&high),
-                pessimistic_bodies: low.bodies.iter().map(|b| body_summary(b, origin)).collect(),
-                optimistic_bodies: high
-                    .bodies
-                    .iter()
-                    .map(|b| body_summary(b, origin))
-                    .collect(),
+                pessimistic_bodies: bodies(&low),
+                optimistic_bodies: bodies(&high),
             });
         }
     }
@@ -353,31 +447,30 @@ pub fn run(
     let mut count = |k: &str, v: usize| {
         counts.insert(k.to_string(), serde_json::Value::from(v));
     };
-    count("samples", samples.points.len());
-    count("wells", samples.wells.len());
+    match &request.grid {
+        Some(g) => count("grid_points", g.volume.points.len()),
+        None => {
+            count("samples", samples.points.len());
+            count("wells", samples.wells.len());
+        }
+    }
     count("unknown_dropped", unknown);
     count("points", data.mesh.points.len());
     count("duplicates_merged", data.mesh.duplicates_merged);
     count("tets", data.mesh.tets.len());
-    count(
-        "active_tets",
-        shells
-            .iter()
-            .map(|s| s.counts.active_tets)
-            .max()
-            .unwrap_or(0),
-    );
+    let active = shells.iter().map(|s| s.counts.active_tets).max();
+    count("active_tets", active.unwrap_or(0));
     count("bodies", shells.iter().map(|s| s.bodies.len()).sum());
     let summary = Summary {
         method: method.name().to_string(),
         origin: origin.to_array(),
-        crs: samples.crs.clone(),
+        crs,
         unit: samples.unit.clone(),
         unknown: request.unknown,
         binary,
         counts,
         shells: shell_summaries,
-        warnings: samples.report.warnings.clone(),
+        warnings,
     };
     progress.report("done", 1.0);
     Ok(ContourResult {

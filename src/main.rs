@@ -19,7 +19,7 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Contour samples into closed ore bodies (GLB + summary JSON).
-    Contour(cli::contour::Args),
+    Contour(Box<cli::contour::Args>),
     /// Delaunay-tetrahedralize a point file and print `points N tets T seconds S`.
     Tetrahedralize(cli::tetrahedralize::Args),
     /// Report what was read from the inputs: holes, samples, ranges, what was dropped and why.
@@ -29,7 +29,7 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let outcome = match cli.command {
-        Command::Contour(args) => cli::contour::run(args),
+        Command::Contour(args) => cli::contour::run(*args),
         Command::Tetrahedralize(args) => cli::tetrahedralize::run(args),
         Command::Inspect(args) => cli::inspect::run(*args),
     };

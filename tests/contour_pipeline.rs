@@ -2,7 +2,7 @@
 //! what a geologist relies on (one closed body, honest volume and area).
 
 use glam::DVec3;
-use wellmesh::contour::{self, ContourRequest, UnknownMode};
+use wellmesh::contour::{self, Anisotropy, ContourRequest, UnknownMode};
 use wellmesh::dmt::{Method, Placement};
 use wellmesh::progress::NoProgress;
 use wellmesh::wells::{ReadReport, SampleSet, Well};
@@ -86,12 +86,8 @@ fn wells(
 
 fn request(samples: SampleSet, thresholds: Vec<f64>, method: Option<Method>) -> ContourRequest {
     ContourRequest {
-        samples,
-        thresholds,
         method,
-        unknown: UnknownMode::Drop,
-        anisotropy: None,
-        min_volume: 0.0,
+        ..ContourRequest::new(samples, thresholds)
     }
 }
 
@@ -161,12 +157,12 @@ fn an_ellipsoid_grade_body_from_utm_wells_is_one_closed_body_with_the_right_volu
 }
 
 #[test]
-fn binary_wells_give_a_closed_body_with_curvature_by_default() {
+fn binary_wells_give_a_closed_body_with_the_midpoint_rule_by_default() {
     let samples = wells(13, 30.0, 2.0, 0.0, -240.0, 11, |p| {
         Some(if ellipsoid_grade(p) >= 0.0 { 1.0 } else { 0.0 })
     });
     let result = contour::run(&request(samples, vec![], None), &NoProgress).expect("contour");
-    assert_eq!(result.summary.method, "curvature");
+    assert_eq!(result.summary.method, "midpoint");
     assert!(result.summary.binary);
     let shell = &result.shells[0];
     assert_eq!(shell.threshold, 0.5);
@@ -243,7 +239,7 @@ fn anisotropy_is_inverted_on_output() {
     let plain =
         contour::run(&request(samples.clone(), vec![0.0], None), &NoProgress).expect("contour");
     let mut req = request(samples, vec![0.0], None);
-    req.anisotropy = Some(DVec3::new(1.0, 1.0, 5.0));
+    req.anisotropy = Some(Anisotropy::scale(DVec3::new(1.0, 1.0, 5.0)));
     let stretched = contour::run(&req, &NoProgress).expect("contour");
     let (a, b) = (&plain.shells[0].bodies[0], &stretched.shells[0].bodies[0]);
     assert!(b.closed);
@@ -255,6 +251,48 @@ fn anisotropy_is_inverted_on_output() {
         b.volume
     );
     assert!((a.bbox[0] - b.bbox[0]).length() < 15.0 && (a.bbox[1] - b.bbox[1]).length() < 15.0);
+
+    // A rotated frame (azimuth 30, dip 20) maps back too.
+    let mut req = request(plain.samples.clone(), vec![0.0], None);
+    req.anisotropy = Some(Anisotropy {
+        scale: DVec3::new(0.5, 1.0, 2.0),
+        azimuth_deg: 30.0,
+        dip_deg: 20.0,
+    });
+    let rotated = contour::run(&req, &NoProgress).expect("contour");
+    let c = &rotated.shells[0].bodies[0];
+    assert!(c.closed);
+    assert!(
+        ((a.volume - c.volume) / a.volume).abs() < 0.05,
+        "{} vs {}",
+        a.volume,
+        c.volume
+    );
+    assert!((a.bbox[0] - c.bbox[0]).length() < 15.0 && (a.bbox[1] - c.bbox[1]).length() < 15.0);
+}
+
+#[test]
+fn the_anisotropy_matrix_is_a_rotation_then_a_scale() {
+    let m = Anisotropy::scale(DVec3::new(2.0, 3.0, 4.0)).matrix();
+    assert!((m * DVec3::new(1.0, 1.0, 1.0) - DVec3::new(2.0, 3.0, 4.0)).length() < 1e-12);
+    let r = Anisotropy {
+        scale: DVec3::ONE,
+        azimuth_deg: 0.0,
+        dip_deg: 0.0,
+    }
+    .matrix();
+    // Azimuth 0 is north: north becomes the first axis.
+    assert!((r * DVec3::Y - DVec3::X).length() < 1e-12);
+    assert!((r.determinant() - 1.0).abs() < 1e-12);
+    let d = Anisotropy {
+        scale: DVec3::ONE,
+        azimuth_deg: 90.0,
+        dip_deg: 30.0,
+    }
+    .matrix();
+    // Dipping 30 degrees: a line going north and down 30 degrees becomes horizontal.
+    let down_dip = DVec3::new(0.0, 30f64.to_radians().cos(), -30f64.to_radians().sin());
+    assert!((d * down_dip - DVec3::Y).length() < 1e-12);
 }
 
 #[test]
@@ -273,4 +311,71 @@ fn requests_without_known_samples_or_with_bad_thresholds_are_refused() {
         contour::run(&request(samples, vec![f64::NAN], None), &NoProgress),
         Err(contour::ContourError::BadThreshold(_))
     ));
+}
+
+/// Volume and area errors of every method and triangulation on the UTM ellipsoid wells:
+/// `cargo test --release --test contour_pipeline method_comparison -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn method_comparison() {
+    use wellmesh::dmt::{self, Triangulation};
+    let exact_volume = 4.0 / 3.0 * std::f64::consts::PI * AXES.x * AXES.y * AXES.z;
+    let exact_area = ellipsoid_area(AXES.x, AXES.y, AXES.z);
+    let binary = std::env::var("BINARY").is_ok();
+    let threshold = if binary { 0.5 } else { 0.0 };
+    for (spacing, step) in [(25.0, 2.0), (25.0, 1.0), (40.0, 2.0)] {
+        let n = (600.0 / spacing) as usize;
+        let samples = wells(n, spacing, step, 0.0, -240.0, 7, |p| {
+            let g = ellipsoid_grade(p);
+            Some(if binary {
+                f64::from(u8::from(g >= 0.0))
+            } else {
+                g
+            })
+        });
+        let points: Vec<DVec3> = samples.points.clone();
+        let values: Vec<f64> = samples.values.iter().map(|v| v.unwrap()).collect();
+        let mesh = wellmesh::tet::delaunay(&points, &NoProgress).unwrap();
+        let vals: Vec<f64> = {
+            let mut v = vec![0.0; mesh.points.len()];
+            for (i, &m) in mesh.vertex_of_input.iter().enumerate() {
+                v[m as usize] = values[i];
+            }
+            v
+        };
+        let report = |name: &str, shell: &dmt::Shell| {
+            let v: f64 = shell.bodies.iter().map(|b| b.volume).sum();
+            let a: f64 = shell.bodies.iter().map(|b| b.area).sum();
+            eprintln!(
+                "spacing {spacing} step {step} {name:28} volume {:+.4} area {:+.4} slivers {:.3} bodies {}",
+                v / exact_volume - 1.0,
+                a / exact_area - 1.0,
+                shell.quality.min_angle_under_10deg,
+                shell.bodies.len()
+            );
+        };
+        report(
+            "mt",
+            &dmt::mt::shell(&mesh, &vals, threshold, &NoProgress).unwrap(),
+        );
+        for placement in [
+            Placement::Ibc,
+            Placement::Coi,
+            Placement::Midpoint,
+            Placement::Curvature { lattice: 7 },
+        ] {
+            for tri in [
+                Triangulation::Star,
+                Triangulation::EdgeCrossing,
+                Triangulation::Fan,
+            ] {
+                let t0 = std::time::Instant::now();
+                let shell =
+                    dmt::extract_shell(&mesh, &vals, threshold, placement, tri, &NoProgress)
+                        .unwrap();
+                eprintln!("{:.3} s", t0.elapsed().as_secs_f64());
+                report(&format!("{placement:?} {tri:?}"), &shell);
+            }
+        }
+    }
 }

@@ -79,6 +79,7 @@ fn contoured() -> ContourResult {
         method: None,
         unknown: UnknownMode::Drop,
         anisotropy: None,
+        grid: None,
         min_volume: 0.0,
     };
     contour::run(&request, &NoProgress).expect("the pipeline contours the lenses")

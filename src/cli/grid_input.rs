@@ -2,7 +2,6 @@
 //!
 //! Invariant: at most one grid source is given (clap enforces it), and [`GridArgs::load`]
 //! returns a grid only when the chosen files were read completely.
-#![allow(dead_code)] // used once a subcommand flattens `GridArgs`
 
 use std::path::{Path, PathBuf};
 
@@ -67,11 +66,6 @@ pub struct GridArgs {
     #[arg(long, value_name = "FILE", requires = "plot3d_xyz")]
     pub plot3d_q: Option<PathBuf>,
 
-    /// PLOT3D quantity to contour: density, momentum_x|y|z, energy, velocity_x|y|z,
-    /// velocity_magnitude, pressure or mach (default density).
-    #[arg(long, value_name = "NAME", requires = "plot3d_xyz")]
-    pub variable: Option<Plot3dVariable>,
-
     /// Block of a multi-grid PLOT3D file, from 0.
     #[arg(long, value_name = "N", requires = "plot3d_xyz")]
     pub plot3d_block: Option<usize>,
@@ -92,20 +86,16 @@ impl GridArgs {
         self.split.unwrap_or_default()
     }
 
-    /// Reads the grid named by the arguments.
-    pub fn load(&self) -> anyhow::Result<GridVolume> {
-        self.load_with_variable(None)
-    }
-
-    /// Reads the grid, with the PLOT3D variable named by `variable` (for a subcommand whose
-    /// own `--variable` also names well-log columns) instead of `self.variable`.
+    /// Reads the grid; `variable` (the shared `--variable`) names the PLOT3D quantity
+    /// (density, momentum_x|y|z, energy, velocity_x|y|z, velocity_magnitude, pressure or
+    /// mach; default density).
     pub fn load_with_variable(&self, variable: Option<&str>) -> anyhow::Result<GridVolume> {
         let variable = match variable {
             Some(name) => Some(
                 name.parse::<Plot3dVariable>()
                     .map_err(|e| anyhow::anyhow!("--variable: {e}"))?,
             ),
-            None => self.variable,
+            None => None,
         };
         if let Some(path) = &self.grid {
             return Ok(read_nrrd(path)?);
@@ -171,19 +161,9 @@ mod tests {
         assert!(Cli::try_parse_from(["t", "--grid", "a.nhdr", "--plot3d-xyz", "x"]).is_err());
         assert!(Cli::try_parse_from(["t", "--plot3d-xyz", "x"]).is_err());
         assert!(Cli::try_parse_from(["t", "--dims", "2,2,2"]).is_err());
-        let cli = Cli::try_parse_from([
-            "t",
-            "--plot3d-xyz",
-            "x",
-            "--plot3d-q",
-            "q",
-            "--variable",
-            "pressure",
-            "--split",
-            "5",
-        ])
-        .unwrap();
-        assert_eq!(cli.grid.variable, Some(Plot3dVariable::Pressure));
+        let cli =
+            Cli::try_parse_from(["t", "--plot3d-xyz", "x", "--plot3d-q", "q", "--split", "5"])
+                .unwrap();
         assert_eq!(cli.grid.cube_split(), CubeSplit::Five);
         assert!(!Cli::try_parse_from(["t"]).unwrap().grid.is_set());
     }
@@ -210,7 +190,7 @@ mod tests {
             "u8",
         ])
         .unwrap();
-        let err = format!("{:#}", cli.grid.load().unwrap_err());
+        let err = format!("{:#}", cli.grid.load_with_variable(None).unwrap_err());
         assert!(err.contains("/nonexistent/v.raw"), "{err}");
     }
 
@@ -233,7 +213,7 @@ mod tests {
             "big",
         ])
         .unwrap();
-        let grid = cli.grid.load().unwrap();
+        let grid = cli.grid.load_with_variable(None).unwrap();
         std::fs::remove_file(&path).unwrap();
         assert_eq!(grid.dims, [2, 3, 4]);
         assert_eq!(grid.values[23], 23.0);
@@ -242,7 +222,10 @@ mod tests {
         let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
         let head = data.join("vtk_headsq/quarter.nhdr");
         let cli = Cli::try_parse_from(["t", "--grid", head.to_str().unwrap()]).unwrap();
-        assert_eq!(cli.grid.load().unwrap().dims, [64, 64, 93]);
+        assert_eq!(
+            cli.grid.load_with_variable(None).unwrap().dims,
+            [64, 64, 93]
+        );
 
         let fin = data.join("vtk_plot3d_bluntfin_combustor");
         let cli = Cli::try_parse_from([
@@ -251,11 +234,12 @@ mod tests {
             fin.join("bluntfinxyz.bin").to_str().unwrap(),
             "--plot3d-q",
             fin.join("bluntfinq.bin").to_str().unwrap(),
-            "--variable",
-            "velocity_magnitude",
         ])
         .unwrap();
-        let grid = cli.grid.load().unwrap();
+        let grid = cli
+            .grid
+            .load_with_variable(Some("velocity_magnitude"))
+            .unwrap();
         assert_eq!(grid.dims, [40, 32, 32]);
         assert_eq!(grid.variable, "velocity_magnitude");
     }

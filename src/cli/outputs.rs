@@ -12,8 +12,6 @@ use wellmesh::export::{self, Levels, OutputOptions};
 
 /// Where to write a contouring result.
 #[derive(Debug, Clone, clap::Args)]
-// Flattened into `contour`'s arguments; until then only the tests build it.
-#[allow(dead_code)]
 pub struct OutputArgs {
     /// GLB (glTF 2.0 binary) of the bodies, Y-up, relative to the origin in its extras.
     #[arg(short = 'o', long = "output", value_name = "OUT.glb")]
@@ -51,7 +49,6 @@ pub struct OutputArgs {
     pub no_samples: bool,
 }
 
-#[allow(dead_code)]
 impl OutputArgs {
     /// The exporters' options these flags ask for; `tileset_content_uri` points from the
     /// tileset's directory to the GLB.

@@ -212,8 +212,17 @@ pub fn extract_shell(
     progress.report(&stage, 0.7);
 
     let edge_crossing = |a: u32, b: u32| hull_crossing(mesh, values, threshold, placement, a, b);
-    let (positions, triangles) = triangulate(&topo, positions, triangulation, &edge_crossing);
-    let bodies = split_bodies(&topo, &positions, &triangles);
+    let (positions, triangles, polygon_of) =
+        triangulate(&topo, positions, triangulation, &edge_crossing);
+    // A body is one connected piece of marked material: its outer shell together with the
+    // shells of its cavities (a surface-connectivity split would make each cavity a body
+    // of negative volume).
+    let regions = mt::marked_regions(mesh, &marked);
+    let label: Vec<u32> = polygon_of
+        .iter()
+        .map(|&k| regions[polygon_marked_point(&topo, k as usize) as usize])
+        .collect();
+    let bodies = split_bodies(&topo, &positions, &triangles, &label);
     let quality = measure::quality(
         bodies
             .iter()
@@ -232,17 +241,6 @@ pub fn extract_shell(
         },
         quality,
     })
-}
-
-/// Marching tetrahedra (quad variant) on the same mesh, closed at the hull, for
-/// comparison with DMT.
-pub fn marching_tetrahedra_shell(
-    _mesh: &TetMesh,
-    _values: &[f64],
-    _threshold: f64,
-    _progress: &dyn Progress,
-) -> Result<Shell, DmtError> {
-    Err(DmtError::Cancelled)
 }
 
 /// Places every surface vertex: DMT vertices by the placement rule, hull vertices by the
@@ -306,13 +304,16 @@ fn triangulate(
     mut positions: Vec<DVec3>,
     triangulation: Triangulation,
     edge_crossing: &dyn Fn(u32, u32) -> DVec3,
-) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+) -> (Vec<DVec3>, Vec<[u32; 3]>, Vec<u32>) {
     let mut triangles = Vec::with_capacity(topo.corners.len() * 2);
+    let mut polygon_of = Vec::with_capacity(topo.corners.len() * 2);
     for k in 0..topo.polygon_count() {
         let poly = topo.polygon(k);
         let n = poly.len();
+        let before = triangles.len();
         if n == 3 {
             triangles.push([poly[0], poly[1], poly[2]]);
+            polygon_of.push(k as u32);
             continue;
         }
         match topo.kinds[k] {
@@ -358,18 +359,26 @@ fn triangulate(
                 }
             }
         }
+        polygon_of.resize(triangles.len(), k as u32);
+        debug_assert!(triangles.len() > before);
     }
-    (positions, triangles)
+    (positions, triangles, polygon_of)
 }
 
 /// Splits the triangles into connected bodies with compact vertex arrays and measures,
 /// largest volume first.
-fn split_bodies(topo: &Topology, positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<Body> {
-    let groups = measure::components(positions.len(), triangles);
+fn split_bodies(
+    topo: &Topology,
+    positions: &[DVec3],
+    triangles: &[[u32; 3]],
+    label: &[u32],
+) -> Vec<Body> {
+    let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
+    order.par_sort_by_key(|&t| label[t as usize]);
     // Compact vertex numbering per body; bodies share no vertex, so one map serves all.
     let mut local = vec![u32::MAX; positions.len()];
-    let parts: Vec<(Vec<DVec3>, Vec<[u32; 3]>, bool)> = groups
-        .iter()
+    let parts: Vec<(Vec<DVec3>, Vec<[u32; 3]>, bool)> = order
+        .chunk_by(|&a, &b| label[a as usize] == label[b as usize])
         .map(|group| {
             let mut body_positions = Vec::new();
             let mut truncated = false;
@@ -404,6 +413,22 @@ fn split_bodies(topo: &Topology, positions: &[DVec3], triangles: &[[u32; 3]]) ->
         .collect();
     bodies.sort_by(|a, b| b.volume.total_cmp(&a.volume));
     bodies
+}
+
+/// A marked mesh vertex of polygon `k`: the marked end of a dual polygon's edge, or a
+/// marked hull corner of a cap.
+fn polygon_marked_point(topo: &Topology, k: usize) -> u32 {
+    match topo.kinds[k] {
+        PolygonKind::Dual => topo.dual_edges[k].0,
+        PolygonKind::Cap => topo
+            .polygon(k)
+            .iter()
+            .find_map(|&v| match topo.roles[v as usize] {
+                VertexRole::HullPoint { point } => Some(point),
+                _ => None,
+            })
+            .expect("a cap holds a marked hull corner"),
+    }
 }
 
 #[cfg(test)]

@@ -313,3 +313,36 @@ fn timing_measures() {
         eprintln!("q {q:?} {:?}", t0.elapsed());
     }
 }
+
+#[test]
+fn a_hollow_body_is_one_body_whose_volume_excludes_the_cavity() {
+    let mesh = grid_mesh(24, -1.0, 1.0);
+    let (inner, outer) = (0.35, 0.8);
+    // Marked between the two spheres: a shell with a cavity.
+    let values: Vec<f64> = mesh
+        .points
+        .iter()
+        .map(|p| {
+            let r = p.length();
+            (r - inner).min(outer - r)
+        })
+        .collect();
+    let shell = extract_shell(
+        &mesh,
+        &values,
+        0.0,
+        Placement::Ibc,
+        Triangulation::Star,
+        &NoProgress,
+    )
+    .unwrap();
+    assert_eq!(shell.bodies.len(), 1, "the cavity belongs to its body");
+    let b = &shell.bodies[0];
+    assert!(b.closed);
+    let exact = 4.0 / 3.0 * std::f64::consts::PI * (outer.powi(3) - inner.powi(3));
+    assert!(
+        ((b.volume - exact) / exact).abs() < 0.05,
+        "volume {} vs {exact}",
+        b.volume
+    );
+}
