@@ -196,6 +196,18 @@ fn duplicate_points_are_merged_and_counted() {
 }
 
 #[test]
+fn negative_zero_is_the_same_coordinate_as_zero() {
+    let mut pts = random_points(50, 9);
+    pts.push(DVec3::new(0.0, 0.5, 0.5));
+    pts.push(DVec3::new(0.3, 0.1, 0.2));
+    pts.push(DVec3::new(-0.0, 0.5, 0.5));
+    let mesh = delaunay(&pts, &NoProgress).unwrap();
+    mesh.validate().unwrap();
+    assert_eq!(mesh.duplicates_merged, 1);
+    assert_eq!(mesh.vertex_of_input[50], mesh.vertex_of_input[52]);
+}
+
+#[test]
 fn coplanar_input_is_rejected() {
     let pts: Vec<DVec3> = (0..50)
         .map(|i| DVec3::new((i % 7) as f64, (i / 7) as f64 * 0.5, 0.0))

@@ -179,7 +179,7 @@ impl<W: Write> Write for Base64<W> {
             self.encode_group(g, 3);
             self.carried = 0;
         } else if self.carried > 0 {
-            // `buf` was used up completing the carried group.
+            // `buf` ran out before a group was complete: keep the carry.
             return Ok(written);
         }
         let mut groups = buf.chunks_exact(3);

@@ -35,6 +35,10 @@ pub fn build(mut points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh,
     if let Some(index) = points.iter().position(|p| !p.is_finite()) {
         return Err(TetError::NonFinite { index });
     }
+    // -0.0 and 0.0 are one coordinate: make them one bit pattern before sorting.
+    for p in &mut points {
+        *p += DVec3::ZERO;
+    }
     let mut vertex_of_input = merge_duplicates(&mut points);
     let duplicates_merged = vertex_of_input.len() - points.len();
     if points.len() < 4 {
@@ -133,13 +137,22 @@ fn exact_shift(points: &[DVec3]) -> DVec3 {
     shift
 }
 
+/// One tetrahedron during construction: 32 bytes, aligned so that its vertices and
+/// neighbour links share one cache line (the cavity search reads both together).
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(16))]
+struct Cell {
+    /// Vertex ids; [`INF`] in ghosts; `[DEAD, ..]` for free slots.
+    v: [u32; 4],
+    /// `t2 * 4 + j` across the face opposite vertex `i`.
+    n: [u32; 4],
+}
+
 /// Construction state: flat arrays of tetrahedra and reused buffers.
 struct Builder<'a> {
     pts: &'a [DVec3],
-    /// Vertex ids; [`INF`] in ghosts; `[DEAD, ..]` for free slots.
-    tets: Vec<[u32; 4]>,
-    /// `t2 * 4 + j` across the face opposite vertex `i`.
-    nbrs: Vec<[u32; 4]>,
+    /// The tetrahedra, vertices and neighbour links side by side.
+    cells: Vec<Cell>,
     free: Vec<u32>,
     /// Bit per tetrahedron: in the current cavity.
     in_cavity: Vec<u64>,
@@ -181,8 +194,7 @@ impl<'a> Builder<'a> {
         let estimate = pts.len().saturating_mul(7) + 64;
         let mut b = Builder {
             pts,
-            tets: Vec::with_capacity(estimate),
-            nbrs: Vec::with_capacity(estimate),
+            cells: Vec::with_capacity(estimate),
             free: Vec::new(),
             in_cavity: Vec::new(),
             tested: Vec::new(),
@@ -208,7 +220,9 @@ impl<'a> Builder<'a> {
             }
         }
         progress.report("tetrahedralize", 1.0);
-        Ok(b.finish())
+        let cells = std::mem::take(&mut b.cells);
+        drop(b);
+        Ok(Builder::finish(cells))
     }
 
     #[inline]
@@ -229,10 +243,12 @@ impl<'a> Builder<'a> {
         if let Some(t) = self.free.pop() {
             return t;
         }
-        let t = self.tets.len() as u32;
-        self.tets.push([DEAD; 4]);
-        self.nbrs.push([NO_NEIGHBOUR; 4]);
-        let words = self.tets.len().div_ceil(64);
+        let t = self.cells.len() as u32;
+        self.cells.push(Cell {
+            v: [DEAD; 4],
+            n: [NO_NEIGHBOUR; 4],
+        });
+        let words = self.cells.len().div_ceil(64);
         if self.in_cavity.len() < words {
             self.in_cavity.resize(words, 0);
             self.tested.resize(words, 0);
@@ -250,20 +266,20 @@ impl<'a> Builder<'a> {
             };
         let finite = [a, b, c, d];
         let t0 = self.alloc();
-        self.tets[t0 as usize] = finite;
+        self.cells[t0 as usize].v = finite;
         for f in 0..4 {
             let g = self.alloc();
             let mut tv = finite;
             tv[f] = INF;
             // Swapping two other vertices puts the infinite vertex outside the face.
             tv.swap((f + 1) % 4, (f + 2) % 4);
-            self.tets[g as usize] = tv;
+            self.cells[g as usize].v = tv;
         }
         // Match the 20 faces pairwise.
         let faces: Vec<([u32; 3], u32)> = (0..5u32)
             .flat_map(|t| (0..4u32).map(move |i| (t, i)))
             .map(|(t, i)| {
-                let tv = self.tets[t as usize];
+                let tv = self.cells[t as usize].v;
                 let mut key = [0u32; 3];
                 let mut n = 0;
                 for (k, &v) in tv.iter().enumerate() {
@@ -279,7 +295,7 @@ impl<'a> Builder<'a> {
         for x in &faces {
             for y in &faces {
                 if x.0 == y.0 && x.1 >> 2 != y.1 >> 2 {
-                    self.nbrs[(x.1 >> 2) as usize][(x.1 & 3) as usize] = y.1;
+                    self.cells[(x.1 >> 2) as usize].n[(x.1 & 3) as usize] = y.1;
                 }
             }
         }
@@ -289,7 +305,7 @@ impl<'a> Builder<'a> {
     /// Does `q` conflict with tetrahedron `t` (inside its perturbed circumsphere, or for a
     /// ghost, strictly beyond its hull face or on it inside the face's circumcircle)?
     fn conflict(&self, t: u32, q: DVec3) -> bool {
-        let tv = self.tets[t as usize];
+        let tv = self.cells[t as usize].v;
         if let Some(k) = tv.iter().position(|&v| v == INF) {
             let mut r = [q; 4];
             for (i, slot) in r.iter_mut().enumerate() {
@@ -314,11 +330,11 @@ impl<'a> Builder<'a> {
     /// finite tetrahedron containing `q`, or a ghost whose hull face `q` is strictly beyond.
     fn locate(&mut self, q: DVec3) -> u32 {
         let mut t = self.last;
-        if let Some(k) = self.tets[t as usize].iter().position(|&v| v == INF) {
-            t = self.nbrs[t as usize][k] >> 2;
+        if let Some(k) = self.cells[t as usize].v.iter().position(|&v| v == INF) {
+            t = self.cells[t as usize].n[k] >> 2;
         }
         loop {
-            let tv = self.tets[t as usize];
+            let tv = self.cells[t as usize].v;
             if tv.contains(&INF) {
                 return t;
             }
@@ -330,7 +346,7 @@ impl<'a> Builder<'a> {
                 let mut r = p;
                 r[f] = q;
                 if predicates::orient(r[0], r[1], r[2], r[3]) == Sign::Negative {
-                    next = Some(self.nbrs[t as usize][f] >> 2);
+                    next = Some(self.cells[t as usize].n[f] >> 2);
                     break;
                 }
             }
@@ -355,7 +371,7 @@ impl<'a> Builder<'a> {
             let t = self.cavity[i];
             i += 1;
             for f in 0..4 {
-                let link = self.nbrs[t as usize][f];
+                let link = self.cells[t as usize].n[f];
                 let t2 = link >> 2;
                 if bit(&self.in_cavity, t2) {
                     continue;
@@ -369,7 +385,7 @@ impl<'a> Builder<'a> {
                     set_bit(&mut self.tested, t2, true);
                     self.tested_list.push(t2);
                 }
-                let mut tv = self.tets[t as usize];
+                let mut tv = self.cells[t as usize].v;
                 tv[f] = v;
                 self.pending.push((tv, f as u32, link));
             }
@@ -380,16 +396,16 @@ impl<'a> Builder<'a> {
         for k in 0..self.cavity.len() {
             let t = self.cavity[k];
             set_bit(&mut self.in_cavity, t, false);
-            self.tets[t as usize][0] = DEAD;
+            self.cells[t as usize].v[0] = DEAD;
             self.free.push(t);
         }
         self.new_tets.clear();
         for k in 0..self.pending.len() {
             let (tv, f, link) = self.pending[k];
             let s = self.alloc();
-            self.tets[s as usize] = tv;
-            self.nbrs[s as usize][f as usize] = link;
-            self.nbrs[(link >> 2) as usize][(link & 3) as usize] = s * 4 + f;
+            self.cells[s as usize].v = tv;
+            self.cells[s as usize].n[f as usize] = link;
+            self.cells[(link >> 2) as usize].n[(link & 3) as usize] = s * 4 + f;
             self.new_tets.push(s);
         }
         self.link_new_tets();
@@ -397,7 +413,7 @@ impl<'a> Builder<'a> {
             .new_tets
             .iter()
             .copied()
-            .find(|&s| !self.tets[s as usize].contains(&INF))
+            .find(|&s| !self.cells[s as usize].v.contains(&INF))
             .unwrap_or(self.new_tets[0]);
     }
 
@@ -413,7 +429,7 @@ impl<'a> Builder<'a> {
         for k in 0..self.new_tets.len() {
             let s = self.new_tets[k];
             let (_, apex, _) = self.pending[k];
-            let tv = self.tets[s as usize];
+            let tv = self.cells[s as usize].v;
             for j in 0..4u32 {
                 if j == apex {
                     continue;
@@ -435,8 +451,9 @@ impl<'a> Builder<'a> {
                         break;
                     }
                     if slot_key == key {
-                        self.nbrs[s as usize][j as usize] = slot_link;
-                        self.nbrs[(slot_link >> 2) as usize][(slot_link & 3) as usize] = s * 4 + j;
+                        self.cells[s as usize].n[j as usize] = slot_link;
+                        self.cells[(slot_link >> 2) as usize].n[(slot_link & 3) as usize] =
+                            s * 4 + j;
                         break;
                     }
                     h = (h + 1) & mask;
@@ -446,46 +463,57 @@ impl<'a> Builder<'a> {
     }
 
     /// Strips ghosts and free slots in place (moving tetrahedra from the end into holes)
-    /// and returns the finite tetrahedra with hull faces marked [`NO_NEIGHBOUR`].
-    fn finish(self) -> (Vec<[u32; 4]>, Vec<[u32; 4]>) {
-        let Builder {
-            mut tets, mut nbrs, ..
-        } = self;
-        for t in 0..tets.len() {
-            if tets[t][0] == DEAD {
+    /// and returns the finite tetrahedra with hull faces marked [`NO_NEIGHBOUR`], as the
+    /// two arrays of a [`TetMesh`]. The construction array is released from its end while
+    /// the outputs fill from theirs, so memory stays near 32 bytes per tetrahedron.
+    fn finish(mut cells: Vec<Cell>) -> (Vec<[u32; 4]>, Vec<[u32; 4]>) {
+        for t in 0..cells.len() {
+            if cells[t].v[0] == DEAD {
                 continue;
             }
-            if let Some(k) = tets[t].iter().position(|&v| v == INF) {
-                let link = nbrs[t][k];
-                nbrs[(link >> 2) as usize][(link & 3) as usize] = NO_NEIGHBOUR;
-                tets[t][0] = DEAD;
+            if let Some(k) = cells[t].v.iter().position(|&v| v == INF) {
+                let link = cells[t].n[k];
+                cells[(link >> 2) as usize].n[(link & 3) as usize] = NO_NEIGHBOUR;
+                cells[t].v[0] = DEAD;
             }
         }
-        let live = tets.iter().filter(|tv| tv[0] != DEAD).count();
-        let mut top = tets.len();
+        let live = cells.iter().filter(|c| c.v[0] != DEAD).count();
+        let mut top = cells.len();
         for d in 0..live {
-            if tets[d][0] != DEAD {
+            if cells[d].v[0] != DEAD {
                 continue;
             }
             loop {
                 top -= 1;
-                if tets[top][0] != DEAD {
+                if cells[top].v[0] != DEAD {
                     break;
                 }
             }
-            tets[d] = tets[top];
-            nbrs[d] = nbrs[top];
+            cells[d] = cells[top];
             for i in 0..4 {
-                let link = nbrs[d][i];
+                let link = cells[d].n[i];
                 if link != NO_NEIGHBOUR {
-                    nbrs[(link >> 2) as usize][(link & 3) as usize] = d as u32 * 4 + i as u32;
+                    cells[(link >> 2) as usize].n[(link & 3) as usize] = d as u32 * 4 + i as u32;
                 }
             }
         }
-        tets.truncate(live);
-        nbrs.truncate(live);
-        tets.shrink_to_fit();
-        nbrs.shrink_to_fit();
+        cells.truncate(live);
+        cells.shrink_to_fit();
+        // Zeroed outputs are not resident until written.
+        let mut tets = vec![[0u32; 4]; live];
+        let mut nbrs = vec![[0u32; 4]; live];
+        const CHUNK: usize = 1 << 16;
+        let mut end = live;
+        while end > 0 {
+            let start = end.saturating_sub(CHUNK);
+            for t in start..end {
+                tets[t] = cells[t].v;
+                nbrs[t] = cells[t].n;
+            }
+            cells.truncate(start);
+            cells.shrink_to_fit();
+            end = start;
+        }
         (tets, nbrs)
     }
 }

@@ -161,6 +161,10 @@ fn diffs<const N: usize>(g: &[[i64; 3]; N], base: usize) -> Option<[[i128; 3]; N
     Some(out)
 }
 
+fn max_abs<const N: usize>(v: &[[i128; 3]; N]) -> i128 {
+    v.iter().flatten().map(|x| x.abs()).max().unwrap_or(0)
+}
+
 /// Exact sign of `(b-a) . ((c-a) x (d-a))` (the `predicates::orient` convention).
 pub fn orient_sign(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<i32> {
     let g = to_grid([a, b, c, d])?;
@@ -170,6 +174,10 @@ pub fn orient_sign(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<i32> {
     let m0 = c[1] * d[2] - c[2] * d[1];
     let m1 = c[0] * d[2] - c[2] * d[0];
     let m2 = c[0] * d[1] - c[1] * d[0];
+    if max_abs(&v) < 1 << 40 {
+        // |det| < 6 * 2^120: plain i128.
+        return Some((b[0] * m0 - b[1] * m1 + b[2] * m2).signum() as i32);
+    }
     let det = I256::from_i128(m0)
         .mul_i128(b[0])
         .sub(I256::from_i128(m1).mul_i128(b[1]))
@@ -189,6 +197,16 @@ pub fn insphere_sign(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Option
     let da = dd[0] * ad[1] - ad[0] * dd[1];
     let ac = ad[0] * cd[1] - cd[0] * ad[1];
     let bdm = bd[0] * dd[1] - dd[0] * bd[1];
+    if max_abs(&v) < 1 << 24 {
+        // |det| < 2^(5 * 24 + 7) = 2^127: plain i128.
+        let abc = ad[2] * bc - bd[2] * ac + cd[2] * ab;
+        let bcd = bd[2] * cdm - cd[2] * bdm + dd[2] * bc;
+        let cda = cd[2] * da + dd[2] * ac + ad[2] * cdm;
+        let dab = dd[2] * ab + ad[2] * bdm + bd[2] * da;
+        let lift = |p: [i128; 3]| p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+        let det = (lift(dd) * abc - lift(cd) * dab) + (lift(bd) * cda - lift(ad) * bcd);
+        return Some(-det.signum() as i32);
+    }
     let w = |x: i128| I256::from_i128(x);
     let abc = w(bc)
         .mul_i128(ad[2])

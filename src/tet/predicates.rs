@@ -179,11 +179,18 @@ pub fn in_sphere_perturbed(t: [DVec3; 4], q: DVec3) -> bool {
         Sign::Negative => return false,
         Sign::Zero => {}
     }
-    // Indices 0..4 are the tetrahedron's vertices, 4 is q.
+    // Indices 0..4 are the tetrahedron's vertices, 4 is q; visit them from the
+    // lexicographically largest down (rarely more than two steps, so select, not sort).
     let pts = [t[0], t[1], t[2], t[3], q];
-    let mut order = [0usize, 1, 2, 3, 4];
-    order.sort_unstable_by(|&i, &j| lex_cmp(pts[j], pts[i]));
-    for &k in &order {
+    let mut done = [false; 5];
+    for _ in 0..5 {
+        let mut k = 5;
+        for i in 0..5 {
+            if !done[i] && (k == 5 || lex_cmp(pts[i], pts[k]) == Ordering::Greater) {
+                k = i;
+            }
+        }
+        done[k] = true;
         if k == 4 {
             return false;
         }
