@@ -14,9 +14,11 @@
 //! HTTP, async runtimes or databases.
 #![forbid(unsafe_code)]
 
+pub mod api;
 pub mod contour;
 pub mod dmt;
 pub mod export;
+pub mod jobs;
 pub mod progress;
 pub mod tet;
 pub mod wells;
