@@ -4,10 +4,14 @@
 //! Invariant: the summary's volumes and areas are those of exactly the triangles in
 //! `ContourResult::shells`, which are what every exporter writes.
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 use serde::Serialize;
 
-use crate::dmt::{Method, Shell};
+use crate::dmt::{
+    self, DmtError, Method, Placement, Quality, Shell, ShellCounts, Triangulation, measure,
+};
+use crate::progress::Progress;
+use crate::tet::{TetError, TetMesh};
 use crate::wells::SampleSet;
 
 /// What to do with "don't know" samples.
@@ -30,10 +34,75 @@ pub struct ContourRequest {
     /// `None` picks the default: curvature for 0/1 data, IbC for grades.
     pub method: Option<Method>,
     pub unknown: UnknownMode,
-    /// Per-axis scale applied before tetrahedralizing and inverted on output.
-    pub anisotropy: Option<DVec3>,
+    /// Scale (and rotation) applied before tetrahedralizing and inverted on output.
+    pub anisotropy: Option<Anisotropy>,
+    /// A structured grid to contour instead of `samples` (which then only carries the
+    /// unit and a fallback CRS): its cells are split into tetrahedra, no Delaunay.
+    pub grid: Option<GridSource>,
     /// Bodies with a smaller volume are left out of the output.
     pub min_volume: f64,
+}
+
+impl ContourRequest {
+    /// A request with the defaults: method by data type, unknowns dropped, no
+    /// anisotropy, no grid, every body kept.
+    pub fn new(samples: SampleSet, thresholds: Vec<f64>) -> Self {
+        ContourRequest {
+            samples,
+            thresholds,
+            method: None,
+            unknown: UnknownMode::Drop,
+            anisotropy: None,
+            grid: None,
+            min_volume: 0.0,
+        }
+    }
+}
+
+/// A grid input and the cube split that turns it into tetrahedra.
+#[derive(Debug, Clone)]
+pub struct GridSource {
+    pub volume: crate::grid::GridVolume,
+    pub split: crate::grid::CubeSplit,
+}
+
+/// An anisotropic frame: ore bodies are long and flat, so distances along the direction of
+/// greatest continuity count less. Points are rotated into the frame whose first axis
+/// points along `azimuth_deg` (clockwise from north) and whose second axis is tilted down by
+/// `dip_deg` about the first, then scaled per axis; output is mapped back exactly.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Anisotropy {
+    pub scale: DVec3,
+    pub azimuth_deg: f64,
+    pub dip_deg: f64,
+}
+
+impl Anisotropy {
+    /// A pure per-axis scale of x, y, z (azimuth 90, dip 0: no rotation).
+    pub fn scale(scale: DVec3) -> Self {
+        Anisotropy {
+            scale,
+            azimuth_deg: 90.0,
+            dip_deg: 0.0,
+        }
+    }
+
+    /// The map from input (local) coordinates into the anisotropic frame.
+    pub fn matrix(&self) -> DMat3 {
+        let (a, d) = (self.azimuth_deg.to_radians(), self.dip_deg.to_radians());
+        let x = DVec3::new(a.sin(), a.cos(), 0.0);
+        let y0 = DVec3::new(-a.cos(), a.sin(), 0.0);
+        let y = y0 * d.cos() - DVec3::Z * d.sin();
+        let z = x.cross(y);
+        DMat3::from_diagonal(self.scale) * DMat3::from_cols(x, y, z).transpose()
+    }
+
+    fn is_valid(&self) -> bool {
+        self.scale.is_finite()
+            && self.scale.min_element() > 0.0
+            && self.azimuth_deg.is_finite()
+            && self.dip_deg.is_finite()
+    }
 }
 
 /// Per-body figures of the summary JSON (design.md contract), in input units.
@@ -54,6 +123,23 @@ pub struct ShellSummary {
     pub volume: f64,
     pub area: f64,
     pub bodies: Vec<BodySummary>,
+    /// Surface counts (DMT/MT duality holds for `surface_*`).
+    pub counts: ShellCounts,
+    /// Triangle quality of the written triangles.
+    pub quality: Quality,
+    /// With `--unknown bounds`: the volumes with every "don't know" sample taken as
+    /// outside (pessimistic) and as inside (optimistic).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub volume_range: Option<VolumeRange>,
+}
+
+/// The volume range that brackets the answer when some samples are "don't know".
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VolumeRange {
+    pub pessimistic: f64,
+    pub optimistic: f64,
+    pub pessimistic_bodies: Vec<BodySummary>,
+    pub optimistic_bodies: Vec<BodySummary>,
 }
 
 /// The summary JSON (design.md contract); extra fields may be added, none removed.
@@ -63,8 +149,14 @@ pub struct Summary {
     pub origin: [f64; 3],
     pub crs: Option<String>,
     pub unit: String,
+    /// How "don't know" samples were handled.
+    pub unknown: UnknownMode,
+    /// `true` when every known value is 0 or 1.
+    pub binary: bool,
     pub counts: serde_json::Map<String, serde_json::Value>,
     pub shells: Vec<ShellSummary>,
+    /// What reading the input doubted or dropped.
+    pub warnings: Vec<String>,
 }
 
 /// The outcome of [`run`].
@@ -81,22 +173,309 @@ pub struct ContourResult {
 /// Why a contouring job failed.
 #[derive(Debug, thiserror::Error)]
 pub enum ContourError {
-    #[error("no thresholds given")]
+    #[error("no thresholds given: pass at least one (0/1 data defaults to 0.5)")]
     NoThresholds,
     #[error("threshold {0} is not a finite number")]
     BadThreshold(f64),
+    #[error(
+        "anisotropy: scale factors must be positive finite numbers and angles finite, got {0:?}"
+    )]
+    BadAnisotropy(Anisotropy),
+    #[error("grid: {0}")]
+    Grid(#[from] crate::grid::GridError),
+    #[error("no samples with a known value (all {unknown} are \"don't know\")")]
+    NoKnownSamples { unknown: usize },
+    #[error("tetrahedralization: {0}")]
+    Tet(#[from] TetError),
+    #[error("contouring: {0}")]
+    Dmt(#[from] DmtError),
     #[error("cancelled")]
     Cancelled,
-    #[error("{0}")]
-    Input(String),
+}
+
+/// `true` when every known value is 0 or 1 (binary "copper above trace" data).
+pub fn is_binary(values: &[Option<f64>]) -> bool {
+    let mut any = false;
+    for v in values.iter().flatten() {
+        any = true;
+        if *v != 0.0 && *v != 1.0 {
+            return false;
+        }
+    }
+    any
+}
+
+/// The method used when the request names none: curvature for 0/1 data, IbC for grades.
+pub fn default_method(binary: bool) -> Method {
+    if binary {
+        Method::Dmt(Placement::Curvature {
+            lattice: crate::dmt::DEFAULT_CURVATURE_LATTICE,
+        })
+    } else {
+        Method::Dmt(Placement::Ibc)
+    }
+}
+
+/// One tetrahedralized point set with a value per mesh vertex.
+struct Classified {
+    mesh: TetMesh,
+    values: Vec<f64>,
+}
+
+/// Tetrahedralizes `points` (already scaled) and averages the values of merged duplicates.
+fn tetrahedralize(
+    points: &[DVec3],
+    values: &[f64],
+    progress: &dyn Progress,
+) -> Result<Classified, ContourError> {
+    let mesh = crate::tet::delaunay(points, progress)?;
+    let mut sum = vec![0.0; mesh.points.len()];
+    let mut count = vec![0u32; mesh.points.len()];
+    for (i, &v) in mesh.vertex_of_input.iter().enumerate() {
+        sum[v as usize] += values[i];
+        count[v as usize] += 1;
+    }
+    let values = sum
+        .iter()
+        .zip(&count)
+        .map(|(s, &c)| s / f64::from(c.max(1)))
+        .collect();
+    Ok(Classified { mesh, values })
+}
+
+/// Extracts one shell and brings it back from the anisotropic frame, with measures
+/// recomputed from the output triangles.
+fn shell(
+    data: &Classified,
+    threshold: f64,
+    method: Method,
+    inverse: Option<DMat3>,
+    min_volume: f64,
+    progress: &dyn Progress,
+) -> Result<Shell, ContourError> {
+    let mut shell = match method {
+        Method::Dmt(placement) => dmt::extract_shell(
+            &data.mesh,
+            &data.values,
+            threshold,
+            placement,
+            Triangulation::default(),
+            progress,
+        )?,
+        Method::MarchingTetrahedra => {
+            dmt::mt::shell(&data.mesh, &data.values, threshold, progress)?
+        }
+    };
+    if let Some(inverse) = inverse {
+        for body in &mut shell.bodies {
+            for p in &mut body.positions {
+                *p = inverse * *p;
+            }
+            body.volume = measure::volume(&body.positions, &body.triangles);
+            body.area = measure::area(&body.positions, &body.triangles);
+            body.bbox = measure::bbox(&body.positions);
+        }
+        shell.quality = measure::quality(
+            shell
+                .bodies
+                .iter()
+                .map(|b| (b.positions.as_slice(), b.triangles.as_slice())),
+        );
+    }
+    shell.bodies.retain(|b| b.volume >= min_volume);
+    Ok(shell)
+}
+
+fn body_summary(body: &crate::dmt::Body, origin: DVec3) -> BodySummary {
+    let [lo, hi] = body.bbox;
+    BodySummary {
+        volume: body.volume,
+        area: body.area,
+        closed: body.closed,
+        truncated: body.truncated,
+        bbox: [(lo + origin).to_array(), (hi + origin).to_array()],
+    }
+}
+
+fn shell_summary(shell: &Shell, origin: DVec3) -> ShellSummary {
+    ShellSummary {
+        threshold: shell.threshold,
+        volume: shell.bodies.iter().map(|b| b.volume).sum(),
+        area: shell.bodies.iter().map(|b| b.area).sum(),
+        bodies: shell
+            .bodies
+            .iter()
+            .map(|b| body_summary(b, origin))
+            .collect(),
+        counts: shell.counts,
+        quality: shell.quality,
+        volume_range: None,
+    }
 }
 
 /// Runs the whole pipeline on one request. Called on a CPU thread (never on an async
 /// runtime's threads); reports stages to `progress` and stops when it is cancelled.
 pub fn run(
     request: &ContourRequest,
-    progress: &dyn crate::progress::Progress,
+    progress: &dyn Progress,
 ) -> Result<ContourResult, ContourError> {
-    let _ = (request, progress);
-    todo!("contour::run is being built on main")
+    let samples = &request.samples;
+    let binary = match &request.grid {
+        Some(g) => g.volume.values.iter().all(|&v| v == 0.0 || v == 1.0),
+        None => is_binary(&samples.values),
+    };
+    let thresholds: Vec<f64> = if request.thresholds.is_empty() && binary {
+        vec![0.5]
+    } else {
+        request.thresholds.clone()
+    };
+    if thresholds.is_empty() {
+        return Err(ContourError::NoThresholds);
+    }
+    if let Some(&t) = thresholds.iter().find(|t| !t.is_finite()) {
+        return Err(ContourError::BadThreshold(t));
+    }
+    let (forward, inverse) = match request.anisotropy {
+        Some(a) if !a.is_valid() => return Err(ContourError::BadAnisotropy(a)),
+        Some(a) => (a.matrix(), Some(a.matrix().inverse())),
+        None => (DMat3::IDENTITY, None),
+    };
+    let method = request.method.unwrap_or_else(|| default_method(binary));
+
+    progress.report("tetrahedralize", 0.0);
+    let (data, unknown) = match &request.grid {
+        Some(grid) => {
+            let mut mesh = crate::grid::tetrahedralize(&grid.volume, grid.split)?;
+            if inverse.is_some() {
+                for p in &mut mesh.points {
+                    *p = forward * *p;
+                }
+            }
+            let unknown = grid.volume.blanked.iter().filter(|&&b| b).count();
+            let values = grid.volume.values.clone();
+            (Classified { mesh, values }, unknown)
+        }
+        None => {
+            // The paper's rule: "don't know" samples are removed before tetrahedralizing.
+            let (points, values): (Vec<DVec3>, Vec<f64>) = samples
+                .points
+                .iter()
+                .zip(&samples.values)
+                .filter_map(|(p, v)| v.map(|v| (forward * *p, v)))
+                .unzip();
+            let unknown = samples.values.len() - values.len();
+            if values.is_empty() {
+                return Err(ContourError::NoKnownSamples { unknown });
+            }
+            (tetrahedralize(&points, &values, progress)?, unknown)
+        }
+    };
+    progress.report("tetrahedralize", 1.0);
+
+    let mut shells = Vec::with_capacity(thresholds.len());
+    for &threshold in &thresholds {
+        if progress.is_cancelled() {
+            return Err(ContourError::Cancelled);
+        }
+        let min_volume = request.min_volume;
+        shells.push(shell(
+            &data, threshold, method, inverse, min_volume, progress,
+        )?);
+    }
+    let (origin, crs, warnings) = match &request.grid {
+        Some(g) => (
+            g.volume.origin,
+            g.volume.crs.clone().or_else(|| samples.crs.clone()),
+            g.volume.warnings.clone(),
+        ),
+        None => (
+            samples.origin,
+            samples.crs.clone(),
+            samples.report.warnings.clone(),
+        ),
+    };
+    let mut shell_summaries: Vec<ShellSummary> =
+        shells.iter().map(|s| shell_summary(s, origin)).collect();
+
+    // Don't-know bounds: every sample tetrahedralized, unknowns taken as "no" then "yes".
+    if request.unknown == UnknownMode::Bounds && unknown > 0 && request.grid.is_none() {
+        let all_points: Vec<DVec3> = samples.points.iter().map(|p| forward * *p).collect();
+        let (lo, hi) = data
+            .values
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+                (lo.min(v), hi.max(v))
+            });
+        let max_threshold = thresholds.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        let min_threshold = thresholds.iter().cloned().fold(f64::INFINITY, f64::min);
+        let no = lo.min(min_threshold) - 1.0;
+        let yes = hi.max(max_threshold) + 1.0;
+        let with =
+            |fill: f64| -> Vec<f64> { samples.values.iter().map(|v| v.unwrap_or(fill)).collect() };
+        let pessimistic = tetrahedralize(&all_points, &with(no), progress)?;
+        let optimistic = tetrahedralize(&all_points, &with(yes), progress)?;
+        let min_volume = request.min_volume;
+        for (summary, &threshold) in shell_summaries.iter_mut().zip(&thresholds) {
+            let low = shell(
+                &pessimistic,
+                threshold,
+                method,
+                inverse,
+                min_volume,
+                progress,
+            )?;
+            let high = shell(
+                &optimistic,
+                threshold,
+                method,
+                inverse,
+                min_volume,
+                progress,
+            )?;
+            let volume = |s: &Shell| s.bodies.iter().map(|b| b.volume).sum::<f64>();
+            let bodies = |s: &Shell| s.bodies.iter().map(|b| body_summary(b, origin)).collect();
+            summary.volume_range = Some(VolumeRange {
+                pessimistic: volume(&low),
+                optimistic: volume(&high),
+                pessimistic_bodies: bodies(&low),
+                optimistic_bodies: bodies(&high),
+            });
+        }
+    }
+
+    let mut counts = serde_json::Map::new();
+    let mut count = |k: &str, v: usize| {
+        counts.insert(k.to_string(), serde_json::Value::from(v));
+    };
+    match &request.grid {
+        Some(g) => count("grid_points", g.volume.points.len()),
+        None => {
+            count("samples", samples.points.len());
+            count("wells", samples.wells.len());
+        }
+    }
+    count("unknown_dropped", unknown);
+    count("points", data.mesh.points.len());
+    count("duplicates_merged", data.mesh.duplicates_merged);
+    count("tets", data.mesh.tets.len());
+    let active = shells.iter().map(|s| s.counts.active_tets).max();
+    count("active_tets", active.unwrap_or(0));
+    count("bodies", shells.iter().map(|s| s.bodies.len()).sum());
+    let summary = Summary {
+        method: method.name().to_string(),
+        origin: origin.to_array(),
+        crs,
+        unit: samples.unit.clone(),
+        unknown: request.unknown,
+        binary,
+        counts,
+        shells: shell_summaries,
+        warnings,
+    };
+    progress.report("done", 1.0);
+    Ok(ContourResult {
+        summary,
+        shells,
+        samples: samples.clone(),
+    })
 }

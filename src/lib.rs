@@ -18,6 +18,7 @@ pub mod api;
 pub mod contour;
 pub mod dmt;
 pub mod export;
+pub mod grid;
 pub mod jobs;
 pub mod progress;
 pub mod tet;

@@ -3,6 +3,10 @@
 pub mod contour;
 pub mod openapi;
 pub mod serve;
+pub mod grid_input;
+pub mod input;
+pub mod inspect;
+pub mod outputs;
 pub mod tetrahedralize;
 pub mod worker;
 

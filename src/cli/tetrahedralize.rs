@@ -1,9 +1,178 @@
-//! `wellmesh tetrahedralize`.
+//! `wellmesh tetrahedralize`: Delaunay-tetrahedralize a point file, print one line
+//! `points N tets T seconds S` (S: the tetrahedralization alone), optionally write a VTU.
+use std::fs::File;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use glam::DVec3;
+use wellmesh::export::tet_vtu::write_tet_vtu_file;
+use wellmesh::progress::NoProgress;
+use wellmesh::tet::delaunay_owned;
 
 #[derive(Debug, clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Points: `.xyz` (one `x y z` per line, whitespace separated; `#` comments) or `.csv`
+    /// (columns `x,y,z` or `easting,northing,elevation`, or the first three without a header).
+    pub points: PathBuf,
+    /// Write the tetrahedra as a VTK unstructured grid (`.vtu`).
+    #[arg(short, long, value_name = "OUT.vtu")]
+    pub output: Option<PathBuf>,
+    /// Print the result as one JSON object instead of the `points N tets T seconds S` line.
+    #[arg(long)]
+    pub json: bool,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<ExitCode> {
-    anyhow::bail!("tetrahedralize is being built")
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let points = read_points(&args.points)?;
+    let n_points = points.len();
+    let started = Instant::now();
+    let mesh = delaunay_owned(points, &NoProgress)
+        .with_context(|| format!("cannot tetrahedralize {}", args.points.display()))?;
+    let seconds = started.elapsed().as_secs_f64();
+    if let Some(out) = &args.output {
+        write_tet_vtu_file(&mesh, out)
+            .with_context(|| format!("cannot write {}", out.display()))?;
+    }
+    if args.json {
+        let summary = serde_json::json!({
+            "points": n_points,
+            "distinct_points": mesh.points.len(),
+            "duplicates_merged": mesh.duplicates_merged,
+            "tets": mesh.tets.len(),
+            "seconds": seconds,
+        });
+        println!("{summary}");
+    } else {
+        println!(
+            "points {n_points} tets {} seconds {seconds:.3}",
+            mesh.tets.len()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Reads `.xyz` or `.csv` points; errors name the file, line and field.
+fn read_points(path: &Path) -> anyhow::Result<Vec<DVec3>> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("csv") => read_csv(path),
+        Some("xyz") | Some("txt") => read_xyz(path),
+        _ => bail!(
+            "{}: unknown point file type (expected .xyz or .csv)",
+            path.display()
+        ),
+    }
+}
+
+fn parse_coord(text: &str, path: &Path, line: usize, field: &str) -> anyhow::Result<f64> {
+    let value: f64 = text.trim().parse().map_err(|_| {
+        anyhow::anyhow!(
+            "{}:{line}: {field} is not a number: {text:?}",
+            path.display()
+        )
+    })?;
+    if !value.is_finite() {
+        bail!("{}:{line}: {field} is not finite: {text:?}", path.display());
+    }
+    Ok(value)
+}
+
+fn read_xyz(path: &Path) -> anyhow::Result<Vec<DVec3>> {
+    let file = File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+    let mut reader = BufReader::with_capacity(1 << 20, file);
+    let mut points = Vec::new();
+    let mut line = String::new();
+    let mut line_no = 0;
+    loop {
+        line.clear();
+        let read = reader
+            .read_line(&mut line)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        if read == 0 {
+            break;
+        }
+        line_no += 1;
+        let content = line.trim();
+        if content.is_empty() || content.starts_with('#') {
+            continue;
+        }
+        let mut fields = content.split_whitespace();
+        let mut xyz = [0.0; 3];
+        for (k, name) in ["x", "y", "z"].into_iter().enumerate() {
+            let Some(text) = fields.next() else {
+                bail!(
+                    "{}:{line_no}: expected 3 numbers `x y z`, found no {name}",
+                    path.display()
+                );
+            };
+            xyz[k] = parse_coord(text, path, line_no, name)?;
+        }
+        points.push(DVec3::from_array(xyz));
+    }
+    Ok(points)
+}
+
+fn read_csv(path: &Path) -> anyhow::Result<Vec<DVec3>> {
+    let file = File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .trim(csv::Trim::All)
+        .from_reader(BufReader::with_capacity(1 << 20, file));
+    let mut records = reader.records();
+    let mut points = Vec::new();
+    let Some(first) = records.next() else {
+        return Ok(points);
+    };
+    let first = first.with_context(|| format!("cannot read {}", path.display()))?;
+    let numeric = first.len() >= 3 && (0..3).all(|k| first[k].parse::<f64>().is_ok());
+    let columns: [usize; 3] = if numeric {
+        [0, 1, 2]
+    } else {
+        let find = |names: &[&str]| {
+            first
+                .iter()
+                .position(|h| names.iter().any(|n| h.eq_ignore_ascii_case(n)))
+        };
+        match (
+            find(&["x", "easting", "east"]),
+            find(&["y", "northing", "north"]),
+            find(&["z", "elevation", "elev", "rl"]),
+        ) {
+            (Some(x), Some(y), Some(z)) => [x, y, z],
+            _ => bail!(
+                "{}:1: header needs columns x, y, z (or easting, northing, elevation)",
+                path.display()
+            ),
+        }
+    };
+    let mut push = |record: &csv::StringRecord, line: usize| -> anyhow::Result<()> {
+        let mut xyz = [0.0; 3];
+        for (k, name) in ["x", "y", "z"].into_iter().enumerate() {
+            let Some(text) = record.get(columns[k]) else {
+                bail!("{}:{line}: missing column {name}", path.display());
+            };
+            xyz[k] = parse_coord(text, path, line, name)?;
+        }
+        points.push(DVec3::from_array(xyz));
+        Ok(())
+    };
+    if numeric {
+        push(&first, 1)?;
+    }
+    for record in records {
+        let record = record.with_context(|| format!("cannot read {}", path.display()))?;
+        let line = record.position().map_or(0, |p| p.line() as usize);
+        if record.iter().all(str::is_empty) {
+            continue;
+        }
+        push(&record, line)?;
+    }
+    Ok(points)
 }

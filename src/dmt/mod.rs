@@ -6,8 +6,20 @@
 //! outwards, away from the marked (`value >= threshold`) side; `volume` and `area` are
 //! computed from exactly the triangles in `triangles`.
 
+pub mod curvature;
+pub mod extract;
+pub mod measure;
+pub mod mt;
+pub mod place;
+
 use glam::DVec3;
+use rayon::prelude::*;
 use serde::Serialize;
+
+use crate::progress::Progress;
+use crate::tet::TetMesh;
+use extract::{PolygonKind, Topology, VertexRole};
+use place::SortedCorners;
 
 /// How the one DMT vertex inside each active tetrahedron is placed.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -120,3 +132,304 @@ impl Method {
         }
     }
 }
+
+/// Why an extraction failed.
+#[derive(Debug, thiserror::Error)]
+pub enum DmtError {
+    #[error("expected one value per mesh vertex ({expected}), got {got}")]
+    ValueCount { expected: usize, got: usize },
+    #[error("value of mesh vertex {0} is not a finite number")]
+    NonFinite(usize),
+    #[error("threshold {0} is not a finite number")]
+    BadThreshold(f64),
+    #[error("cancelled")]
+    Cancelled,
+}
+
+/// How the (non-planar) dual polygons are cut into triangles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Triangulation {
+    /// A star around the polygon's centroid (one added vertex per polygon of 4 or more
+    /// corners): fat triangles. The default, chosen by measurement (docs/dmt.md).
+    #[default]
+    Star,
+    /// A star around the crossing on the polygon's dual edge (the marching-tetrahedra
+    /// vertex of that edge): slightly smaller volume error, more slivers.
+    EdgeCrossing,
+    /// A fan from the first corner: no added vertices, more slivers.
+    Fan,
+}
+
+/// Extracts the DMT surface of `values >= threshold` on `mesh`, closed at the hull, split
+/// into bodies (largest first) with their measures.
+///
+/// `values` holds one finite value per mesh vertex (`mesh.points`).
+pub fn extract_shell(
+    mesh: &TetMesh,
+    values: &[f64],
+    threshold: f64,
+    placement: Placement,
+    triangulation: Triangulation,
+    progress: &dyn Progress,
+) -> Result<Shell, DmtError> {
+    if values.len() != mesh.points.len() {
+        return Err(DmtError::ValueCount {
+            expected: mesh.points.len(),
+            got: values.len(),
+        });
+    }
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(DmtError::NonFinite(i));
+    }
+    if !threshold.is_finite() {
+        return Err(DmtError::BadThreshold(threshold));
+    }
+    let stage = format!("contour {threshold}");
+    progress.report(&stage, 0.0);
+    let marked: Vec<bool> = values.par_iter().map(|&v| v >= threshold).collect();
+    let topo = extract::build(mesh, &marked);
+    if progress.is_cancelled() {
+        return Err(DmtError::Cancelled);
+    }
+    progress.report(&stage, 0.3);
+
+    let mut positions = vec![DVec3::ZERO; topo.roles.len()];
+    place_vertices(
+        &topo,
+        mesh,
+        values,
+        &marked,
+        threshold,
+        placement,
+        &mut positions,
+    );
+    if let Placement::Curvature { lattice } = placement {
+        curvature::optimize(&topo, mesh, &mut positions, lattice, progress)?;
+    }
+    if progress.is_cancelled() {
+        return Err(DmtError::Cancelled);
+    }
+    progress.report(&stage, 0.7);
+
+    let edge_crossing = |a: u32, b: u32| hull_crossing(mesh, values, threshold, placement, a, b);
+    let (positions, triangles, polygon_of) =
+        triangulate(&topo, positions, triangulation, &edge_crossing);
+    // A body is one connected piece of marked material: its outer shell together with the
+    // shells of its cavities (a surface-connectivity split would make each cavity a body
+    // of negative volume).
+    let regions = mt::marked_regions(mesh, &marked);
+    let label: Vec<u32> = polygon_of
+        .iter()
+        .map(|&k| regions[polygon_marked_point(&topo, k as usize) as usize])
+        .collect();
+    let bodies = split_bodies(&topo, &positions, &triangles, &label);
+    let quality = measure::quality(
+        bodies
+            .iter()
+            .map(|b| (b.positions.as_slice(), b.triangles.as_slice())),
+    );
+    progress.report(&stage, 1.0);
+    Ok(Shell {
+        threshold,
+        bodies,
+        counts: ShellCounts {
+            marked_points: topo.marked_points,
+            active_tets: topo.active_tets,
+            active_edges: topo.active_edges,
+            surface_vertices: topo.active_tets,
+            surface_faces: topo.active_edges,
+        },
+        quality,
+    })
+}
+
+/// Places every surface vertex: DMT vertices by the placement rule, hull vertices by the
+/// crossing on their edge (midpoints for the midpoint rule).
+fn place_vertices(
+    topo: &Topology,
+    mesh: &TetMesh,
+    values: &[f64],
+    marked: &[bool],
+    threshold: f64,
+    placement: Placement,
+    positions: &mut [DVec3],
+) {
+    let rule: fn(&SortedCorners, f64) -> DVec3 = match placement {
+        Placement::Ibc => place::ibc,
+        Placement::Coi => place::coi,
+        Placement::Midpoint => place::midpoint,
+        // The curvature search starts from the centroid of the crossings.
+        Placement::Curvature { .. } => place::coi,
+    };
+    positions[..topo.active_tets]
+        .par_iter_mut()
+        .zip(&topo.roles[..topo.active_tets])
+        .for_each(|(p, role)| {
+            let VertexRole::Tet { tet } = *role else {
+                unreachable!("the first vertices are DMT vertices")
+            };
+            let tv = mesh.tets[tet as usize];
+            let corners = SortedCorners::new(
+                tv.map(|v| mesh.points[v as usize]),
+                tv.map(|v| values[v as usize]),
+            );
+            *p = rule(&corners, threshold);
+        });
+    let crossing = |a: u32, b: u32| hull_crossing(mesh, values, threshold, placement, a, b);
+    extract::place_hull_vertices(topo, mesh, marked, &crossing, positions);
+}
+
+/// The surface point on the active edge from marked vertex `a` to unmarked `b`: the
+/// linear-interpolation crossing, or the midpoint for the midpoint rule.
+fn hull_crossing(
+    mesh: &TetMesh,
+    values: &[f64],
+    threshold: f64,
+    placement: Placement,
+    a: u32,
+    b: u32,
+) -> DVec3 {
+    let (pa, pb) = (mesh.points[a as usize], mesh.points[b as usize]);
+    match placement {
+        Placement::Midpoint => (pa + pb) * 0.5,
+        _ => place::crossing(pb, pa, values[b as usize], values[a as usize], threshold),
+    }
+}
+
+/// Cuts every polygon into triangles, keeping orientation. Dual polygons of 4 or more
+/// corners get a centre vertex with [`Triangulation::Star`]; caps are fanned from their
+/// `W_f` vertex, which sees the whole (planar) cap polygon.
+fn triangulate(
+    topo: &Topology,
+    mut positions: Vec<DVec3>,
+    triangulation: Triangulation,
+    edge_crossing: &dyn Fn(u32, u32) -> DVec3,
+) -> (Vec<DVec3>, Vec<[u32; 3]>, Vec<u32>) {
+    let mut triangles = Vec::with_capacity(topo.corners.len() * 2);
+    let mut polygon_of = Vec::with_capacity(topo.corners.len() * 2);
+    for k in 0..topo.polygon_count() {
+        let poly = topo.polygon(k);
+        let n = poly.len();
+        let before = triangles.len();
+        if n == 3 {
+            triangles.push([poly[0], poly[1], poly[2]]);
+            polygon_of.push(k as u32);
+            continue;
+        }
+        match topo.kinds[k] {
+            PolygonKind::Dual
+                if triangulation == Triangulation::EdgeCrossing && topo.dual_open[k] =>
+            {
+                // The crossing is already a corner (U_e): fan from it.
+                let u = n - 2;
+                for i in 1..n - 1 {
+                    triangles.push([poly[u], poly[(u + i) % n], poly[(u + i + 1) % n]]);
+                }
+            }
+            PolygonKind::Dual if triangulation != Triangulation::Fan => {
+                let centre = if triangulation == Triangulation::EdgeCrossing {
+                    let (a, b) = topo.dual_edges[k];
+                    edge_crossing(a, b)
+                } else {
+                    poly.iter().map(|&v| positions[v as usize]).sum::<DVec3>() / n as f64
+                };
+                let c = positions.len() as u32;
+                positions.push(centre);
+                for i in 0..n {
+                    triangles.push([c, poly[i], poly[(i + 1) % n]]);
+                }
+            }
+            PolygonKind::Dual => {
+                for i in 1..n - 1 {
+                    triangles.push([poly[0], poly[i], poly[i + 1]]);
+                }
+            }
+            PolygonKind::Cap => {
+                let w = poly
+                    .iter()
+                    .position(|&v| {
+                        matches!(
+                            topo.roles.get(v as usize),
+                            Some(VertexRole::HullFace { .. })
+                        )
+                    })
+                    .unwrap_or(0);
+                for i in 1..n - 1 {
+                    triangles.push([poly[w], poly[(w + i) % n], poly[(w + i + 1) % n]]);
+                }
+            }
+        }
+        polygon_of.resize(triangles.len(), k as u32);
+        debug_assert!(triangles.len() > before);
+    }
+    (positions, triangles, polygon_of)
+}
+
+/// Splits the triangles into connected bodies with compact vertex arrays and measures,
+/// largest volume first.
+fn split_bodies(
+    topo: &Topology,
+    positions: &[DVec3],
+    triangles: &[[u32; 3]],
+    label: &[u32],
+) -> Vec<Body> {
+    let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
+    order.par_sort_by_key(|&t| label[t as usize]);
+    // Compact vertex numbering per body; bodies share no vertex, so one map serves all.
+    let mut local = vec![u32::MAX; positions.len()];
+    let parts: Vec<(Vec<DVec3>, Vec<[u32; 3]>, bool)> = order
+        .chunk_by(|&a, &b| label[a as usize] == label[b as usize])
+        .map(|group| {
+            let mut body_positions = Vec::new();
+            let mut truncated = false;
+            let body_triangles = group
+                .iter()
+                .map(|&t| {
+                    triangles[t as usize].map(|v| {
+                        if local[v as usize] == u32::MAX {
+                            let role = topo.roles.get(v as usize);
+                            truncated |= role.is_some_and(|r| !matches!(r, VertexRole::Tet { .. }));
+                            local[v as usize] = body_positions.len() as u32;
+                            body_positions.push(positions[v as usize]);
+                        }
+                        local[v as usize]
+                    })
+                })
+                .collect();
+            (body_positions, body_triangles, truncated)
+        })
+        .collect();
+    let mut bodies: Vec<Body> = parts
+        .into_par_iter()
+        .map(|(positions, triangles, truncated)| Body {
+            volume: measure::volume(&positions, &triangles),
+            area: measure::area(&positions, &triangles),
+            closed: measure::is_closed_and_oriented(&triangles),
+            truncated,
+            bbox: measure::bbox(&positions),
+            positions,
+            triangles,
+        })
+        .collect();
+    bodies.sort_by(|a, b| b.volume.total_cmp(&a.volume));
+    bodies
+}
+
+/// A marked mesh vertex of polygon `k`: the marked end of a dual polygon's edge, or a
+/// marked hull corner of a cap.
+fn polygon_marked_point(topo: &Topology, k: usize) -> u32 {
+    match topo.kinds[k] {
+        PolygonKind::Dual => topo.dual_edges[k].0,
+        PolygonKind::Cap => topo
+            .polygon(k)
+            .iter()
+            .find_map(|&v| match topo.roles[v as usize] {
+                VertexRole::HullPoint { point } => Some(point),
+                _ => None,
+            })
+            .expect("a cap holds a marked hull corner"),
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests;

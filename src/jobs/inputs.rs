@@ -7,7 +7,7 @@
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use crate::contour::{ContourRequest, UnknownMode};
+use crate::contour::{Anisotropy, ContourRequest, UnknownMode};
 use crate::dmt::Method;
 use crate::wells::{Input, InputFile, SampleSet};
 
@@ -269,7 +269,10 @@ impl ProcessInputs {
             thresholds: self.thresholds.values(),
             method: self.method()?,
             unknown: self.unknown_mode()?,
-            anisotropy: self.anisotropy.map(glam::DVec3::from_array),
+            anisotropy: self
+                .anisotropy
+                .map(|scale| Anisotropy::scale(glam::DVec3::from_array(scale))),
+            grid: None,
             min_volume: self.min_volume.unwrap_or(0.0),
         })
     }

@@ -5,6 +5,7 @@
 //! starts answering `is_cancelled() == true`.
 
 use crate::contour::{self, ContourError};
+use crate::export::{self, OutputOptions};
 use crate::progress::Progress;
 use crate::wells::{Input, SampleSet};
 
@@ -61,22 +62,21 @@ impl Pipeline for ContourPipeline {
             return Err(JobFailure::Cancelled);
         }
         progress.report("export", 0.0);
-        let summary = serde_json::to_vec(&result.summary)
-            .map_err(|e| JobFailure::Internal(format!("summary JSON: {e}")))?;
-        let outputs = vec![StoredOutput {
-            id: "summary".to_string(),
-            file_name: "summary.json".to_string(),
-            media_type: "application/json".to_string(),
-            bytes: summary,
-        }];
+        let outputs = export::all_outputs(&result, &OutputOptions::default())
+            .map_err(|e| JobFailure::Internal(format!("exporting the results: {e}")))?;
         progress.report("export", 1.0);
-        Ok(outputs)
+        Ok(outputs
+            .into_iter()
+            .map(|output| StoredOutput {
+                id: output.id.to_string(),
+                file_name: output.file_name,
+                media_type: output.media_type.to_string(),
+                bytes: output.bytes,
+            })
+            .collect())
     }
 }
 
 fn load_samples(input: &Input) -> Result<SampleSet, JobFailure> {
-    let _ = input;
-    Err(JobFailure::Input(
-        "reading wells is not available in this build".to_string(),
-    ))
+    input.load().map_err(|e| JobFailure::Input(e.to_string()))
 }

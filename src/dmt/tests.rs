@@ -1,0 +1,348 @@
+//! Extraction tests on meshes with known answers: Freudenthal (6-split) grids of closed-form
+//! fields.
+use std::collections::HashMap;
+
+use glam::DVec3;
+
+use super::*;
+use crate::progress::NoProgress;
+use crate::tet::{NO_NEIGHBOUR, TetMesh};
+
+/// A 6-split grid mesh with `n` cells per axis over `[lo, hi]^3`.
+pub(crate) fn grid_mesh(n: usize, lo: f64, hi: f64) -> TetMesh {
+    let h = (hi - lo) / n as f64;
+    let idx = |i: usize, j: usize, k: usize| (i + (n + 1) * (j + (n + 1) * k)) as u32;
+    let mut points = Vec::new();
+    for k in 0..=n {
+        for j in 0..=n {
+            for i in 0..=n {
+                points.push(DVec3::new(
+                    lo + i as f64 * h,
+                    lo + j as f64 * h,
+                    lo + k as f64 * h,
+                ));
+            }
+        }
+    }
+    let mut tets = Vec::new();
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let c = |b: usize| idx(i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1));
+                for path in [[1, 3], [1, 5], [2, 3], [2, 6], [4, 5], [4, 6]] {
+                    let mut t = [c(0), c(path[0]), c(path[1]), c(7)];
+                    let p = t.map(|v| points[v as usize]);
+                    if (p[1] - p[0]).dot((p[2] - p[0]).cross(p[3] - p[0])) < 0.0 {
+                        t.swap(2, 3);
+                    }
+                    tets.push(t);
+                }
+            }
+        }
+    }
+    let mut faces: HashMap<[u32; 3], u32> = HashMap::new();
+    let mut neighbours = vec![[NO_NEIGHBOUR; 4]; tets.len()];
+    for (t, tv) in tets.iter().enumerate() {
+        for i in 0..4 {
+            let mut f: Vec<u32> = (0..4).filter(|&j| j != i).map(|j| tv[j]).collect();
+            f.sort_unstable();
+            let key = [f[0], f[1], f[2]];
+            let here = (t * 4 + i) as u32;
+            if let Some(other) = faces.remove(&key) {
+                neighbours[t][i] = other;
+                neighbours[(other / 4) as usize][(other % 4) as usize] = here;
+            } else {
+                faces.insert(key, here);
+            }
+        }
+    }
+    let count = points.len();
+    TetMesh {
+        points,
+        tets,
+        neighbours,
+        vertex_of_input: (0..count as u32).collect(),
+        duplicates_merged: 0,
+    }
+}
+
+fn sphere_values(mesh: &TetMesh, centre: DVec3, r: f64) -> Vec<f64> {
+    mesh.points
+        .iter()
+        .map(|p| r * r - (*p - centre).length_squared())
+        .collect()
+}
+
+fn all_placements() -> [Placement; 4] {
+    [
+        Placement::Ibc,
+        Placement::Coi,
+        Placement::Midpoint,
+        Placement::Curvature { lattice: 7 },
+    ]
+}
+
+#[test]
+fn a_sampled_sphere_gives_one_closed_body_with_about_the_right_volume() {
+    let mesh = grid_mesh(16, -1.0, 1.0);
+    let r = 0.7;
+    let values = sphere_values(&mesh, DVec3::new(0.03, -0.02, 0.01), r);
+    let exact_volume = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
+    let exact_area = 4.0 * std::f64::consts::PI * r * r;
+    for placement in all_placements() {
+        for tri in [
+            Triangulation::EdgeCrossing,
+            Triangulation::Star,
+            Triangulation::Fan,
+        ] {
+            let shell = extract_shell(&mesh, &values, 0.0, placement, tri, &NoProgress).unwrap();
+            assert_eq!(shell.bodies.len(), 1, "{placement:?}");
+            let b = &shell.bodies[0];
+            assert!(b.closed, "{placement:?} {tri:?}");
+            assert!(!b.truncated);
+            let dv = (b.volume - exact_volume) / exact_volume;
+            let da = (b.area - exact_area) / exact_area;
+            eprintln!(
+                "{placement:?} {tri:?}: volume {dv:+.4} area {da:+.4} slivers {:.3}",
+                shell.quality.min_angle_under_10deg
+            );
+            if matches!(placement, Placement::Ibc | Placement::Coi) {
+                assert!(dv.abs() < 0.03, "{placement:?}: volume error {dv}");
+                assert!(da.abs() < 0.05, "{placement:?}: area error {da}");
+            }
+            assert!(b.volume > 0.0);
+        }
+    }
+}
+
+#[test]
+fn a_sphere_cut_by_the_hull_is_capped_closed_and_truncated() {
+    let mesh = grid_mesh(20, -1.0, 1.0);
+    // Centre on the x = 1 face: half the sphere is inside the data.
+    let r = 0.6;
+    let values = sphere_values(&mesh, DVec3::new(1.0, 0.05, -0.03), r);
+    let shell = extract_shell(
+        &mesh,
+        &values,
+        0.0,
+        Placement::Ibc,
+        Triangulation::EdgeCrossing,
+        &NoProgress,
+    )
+    .unwrap();
+    assert_eq!(shell.bodies.len(), 1);
+    let b = &shell.bodies[0];
+    assert!(b.closed);
+    assert!(b.truncated);
+    let half = 2.0 / 3.0 * std::f64::consts::PI * r * r * r;
+    eprintln!("half sphere: volume {} vs {half}", b.volume);
+    assert!(
+        ((b.volume - half) / half).abs() < 0.05,
+        "volume {} vs {half}",
+        b.volume
+    );
+}
+
+#[test]
+fn all_points_marked_gives_the_whole_hull() {
+    let mesh = grid_mesh(3, 0.0, 3.0);
+    let values = vec![1.0; mesh.points.len()];
+    let shell = extract_shell(
+        &mesh,
+        &values,
+        0.5,
+        Placement::Midpoint,
+        Triangulation::EdgeCrossing,
+        &NoProgress,
+    )
+    .unwrap();
+    assert_eq!(shell.bodies.len(), 1);
+    let b = &shell.bodies[0];
+    assert!(b.closed && b.truncated);
+    assert!((b.volume - 27.0).abs() < 1e-9);
+    assert!((b.area - 54.0).abs() < 1e-9);
+    assert_eq!(shell.counts.active_tets, 0);
+}
+
+#[test]
+fn nothing_marked_gives_no_body() {
+    let mesh = grid_mesh(3, 0.0, 3.0);
+    let values = vec![0.0; mesh.points.len()];
+    let shell = extract_shell(
+        &mesh,
+        &values,
+        0.5,
+        Placement::Ibc,
+        Triangulation::EdgeCrossing,
+        &NoProgress,
+    )
+    .unwrap();
+    assert!(shell.bodies.is_empty());
+}
+
+#[test]
+fn two_separate_spheres_are_two_bodies() {
+    let mesh = grid_mesh(20, -2.0, 2.0);
+    let values: Vec<f64> = mesh
+        .points
+        .iter()
+        .map(|p| {
+            let a = 0.5 - (*p - DVec3::new(-1.0, 0.0, 0.0)).length();
+            let b = 0.5 - (*p - DVec3::new(1.0, 0.1, 0.0)).length();
+            a.max(b)
+        })
+        .collect();
+    let shell = extract_shell(
+        &mesh,
+        &values,
+        0.0,
+        Placement::Ibc,
+        Triangulation::EdgeCrossing,
+        &NoProgress,
+    )
+    .unwrap();
+    assert_eq!(shell.bodies.len(), 2);
+    assert!(shell.bodies.iter().all(|b| b.closed && !b.truncated));
+}
+
+#[test]
+fn every_interior_dmt_vertex_has_valence_three_or_four() {
+    let mesh = grid_mesh(8, -1.0, 1.0);
+    let values = sphere_values(&mesh, DVec3::ZERO, 0.55);
+    let marked: Vec<bool> = values.iter().map(|&v| v >= 0.0).collect();
+    let topo = extract::build(&mesh, &marked);
+    let mut valence = vec![0usize; topo.roles.len()];
+    for k in 0..topo.polygon_count() {
+        for &v in topo.polygon(k) {
+            valence[v as usize] += 1;
+        }
+    }
+    for (v, role) in topo.roles.iter().enumerate() {
+        if let extract::VertexRole::Tet { tet } = role {
+            let m = mesh.tets[*tet as usize]
+                .iter()
+                .filter(|&&p| marked[p as usize])
+                .count();
+            let expected = if m == 2 { 4 } else { 3 };
+            assert_eq!(valence[v], expected, "tet {tet} with {m} marked corners");
+        }
+    }
+}
+
+#[test]
+fn bad_values_are_rejected() {
+    let mesh = grid_mesh(2, 0.0, 1.0);
+    let mut values = vec![0.0; mesh.points.len()];
+    assert!(matches!(
+        extract_shell(
+            &mesh,
+            &values[1..],
+            0.5,
+            Placement::Ibc,
+            Triangulation::EdgeCrossing,
+            &NoProgress
+        ),
+        Err(DmtError::ValueCount { .. })
+    ));
+    values[3] = f64::NAN;
+    assert!(matches!(
+        extract_shell(
+            &mesh,
+            &values,
+            0.5,
+            Placement::Ibc,
+            Triangulation::EdgeCrossing,
+            &NoProgress
+        ),
+        Err(DmtError::NonFinite(3))
+    ));
+}
+
+/// Timing on a 6.7M-tetrahedron grid mesh: `cargo test --release --lib dmt::tests::timing -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn timing_on_a_large_grid() {
+    let mesh = grid_mesh(104, -1.0, 1.0);
+    let values = sphere_values(&mesh, DVec3::new(0.01, 0.02, 0.03), 0.8);
+    eprintln!("tets {}", mesh.tets.len());
+    for placement in all_placements() {
+        let t0 = std::time::Instant::now();
+        let shell = extract_shell(
+            &mesh,
+            &values,
+            0.0,
+            placement,
+            Triangulation::Star,
+            &NoProgress,
+        )
+        .unwrap();
+        eprintln!(
+            "{placement:?}: {:.3} s, active tets {}, triangles {}",
+            t0.elapsed().as_secs_f64(),
+            shell.counts.active_tets,
+            shell.quality.triangles
+        );
+    }
+}
+
+#[test]
+#[ignore]
+fn timing_measures() {
+    let mesh = grid_mesh(104, -1.0, 1.0);
+    let values = sphere_values(&mesh, DVec3::new(0.01, 0.02, 0.03), 0.8);
+    let shell = extract_shell(
+        &mesh,
+        &values,
+        0.0,
+        Placement::Ibc,
+        Triangulation::Star,
+        &NoProgress,
+    )
+    .unwrap();
+    let b = &shell.bodies[0];
+    for _ in 0..2 {
+        let t0 = std::time::Instant::now();
+        let c = measure::is_closed_and_oriented(&b.triangles);
+        eprintln!("closed {c} {:?}", t0.elapsed());
+        let t0 = std::time::Instant::now();
+        let v = measure::volume(&b.positions, &b.triangles);
+        let a = measure::area(&b.positions, &b.triangles);
+        eprintln!("va {v} {a} {:?}", t0.elapsed());
+        let t0 = std::time::Instant::now();
+        let q = measure::quality([(b.positions.as_slice(), b.triangles.as_slice())]);
+        eprintln!("q {q:?} {:?}", t0.elapsed());
+    }
+}
+
+#[test]
+fn a_hollow_body_is_one_body_whose_volume_excludes_the_cavity() {
+    let mesh = grid_mesh(24, -1.0, 1.0);
+    let (inner, outer) = (0.35, 0.8);
+    // Marked between the two spheres: a shell with a cavity.
+    let values: Vec<f64> = mesh
+        .points
+        .iter()
+        .map(|p| {
+            let r = p.length();
+            (r - inner).min(outer - r)
+        })
+        .collect();
+    let shell = extract_shell(
+        &mesh,
+        &values,
+        0.0,
+        Placement::Ibc,
+        Triangulation::Star,
+        &NoProgress,
+    )
+    .unwrap();
+    assert_eq!(shell.bodies.len(), 1, "the cavity belongs to its body");
+    let b = &shell.bodies[0];
+    assert!(b.closed);
+    let exact = 4.0 / 3.0 * std::f64::consts::PI * (outer.powi(3) - inner.powi(3));
+    assert!(
+        ((b.volume - exact) / exact).abs() < 0.05,
+        "volume {} vs {exact}",
+        b.volume
+    );
+}

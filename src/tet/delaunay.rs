@@ -1,0 +1,506 @@
+//! Incremental Bowyer–Watson construction of the 3D Delaunay tetrahedralization.
+//!
+//! Invariant: between insertions the structure is a triangulation of the 3-sphere: finite
+//! tetrahedra tile the convex hull of the inserted points, one ghost tetrahedron (with the
+//! infinite vertex [`INF`]) sits on each hull face, every tetrahedron is positive and
+//! locally Delaunay under the symbolic perturbation of [`predicates`], and `nbrs` is
+//! symmetric (`nbrs[t][i] = t2 * 4 + j` and `nbrs[t2][j] = t * 4 + i`).
+
+use glam::DVec3;
+
+use super::predicates::{self, Sign};
+use super::sort::brio_hilbert_order;
+use super::{NO_NEIGHBOUR, TetError, TetMesh};
+use crate::progress::Progress;
+
+/// The vertex at infinity of ghost tetrahedra (never in a finished [`TetMesh`]).
+const INF: u32 = u32::MAX;
+/// `tets[t][0]` of a free slot.
+const DEAD: u32 = u32::MAX - 1;
+/// Largest number of distinct points (vertex ids stay below [`DEAD`]).
+pub const MAX_POINTS: usize = (u32::MAX - 2) as usize;
+/// Insertions between two progress reports / cancellation checks.
+const CHECK_EVERY: usize = 4096;
+/// Empty slot of the edge table.
+const EMPTY: u64 = u64::MAX;
+
+/// The Delaunay tetrahedralization of `points`; see [`super::delaunay`].
+pub fn build(mut points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh, TetError> {
+    if points.len() > MAX_POINTS {
+        return Err(TetError::TooManyPoints {
+            count: points.len(),
+            max: MAX_POINTS,
+        });
+    }
+    if let Some(index) = points.iter().position(|p| !p.is_finite()) {
+        return Err(TetError::NonFinite { index });
+    }
+    let mut vertex_of_input = merge_duplicates(&mut points);
+    let duplicates_merged = vertex_of_input.len() - points.len();
+    if points.len() < 4 {
+        return Err(TetError::TooFewPoints {
+            distinct: points.len(),
+        });
+    }
+    // Vertices are numbered in insertion order, so the points the construction touches
+    // one after the other are neighbours in memory too.
+    let order = brio_hilbert_order(&points);
+    let mut rank = vec![0u32; points.len()];
+    for (k, &v) in order.iter().enumerate() {
+        rank[v as usize] = k as u32;
+    }
+    points = order.iter().map(|&v| points[v as usize]).collect();
+    drop(order);
+    for v in &mut vertex_of_input {
+        *v = rank[*v as usize];
+    }
+    drop(rank);
+    let shift = exact_shift(&points);
+    for p in &mut points {
+        *p -= shift;
+    }
+    let built = Builder::run(&points, progress);
+    for p in &mut points {
+        *p += shift;
+    }
+    let (tets, neighbours) = built?;
+    Ok(TetMesh {
+        points,
+        tets,
+        neighbours,
+        vertex_of_input,
+        duplicates_merged,
+    })
+}
+
+/// Merges points with exactly equal coordinates in place (first occurrence kept, input
+/// order preserved) and returns the vertex of each input point.
+fn merge_duplicates(points: &mut Vec<DVec3>) -> Vec<u32> {
+    use rayon::prelude::*;
+    let n = points.len();
+    let mut sorted: Vec<u32> = (0..n as u32).collect();
+    {
+        let p: &[DVec3] = points;
+        sorted.par_sort_unstable_by(|&i, &j| {
+            predicates::lex_cmp(p[i as usize], p[j as usize]).then(i.cmp(&j))
+        });
+    }
+    // First: the representative (smallest input index) of each point.
+    let mut vertex_of_input = vec![0u32; n];
+    let mut run_start = 0;
+    for k in 0..n {
+        let i = sorted[k] as usize;
+        if k > 0 && points[i] != points[sorted[k - 1] as usize] {
+            run_start = k;
+        }
+        vertex_of_input[i] = sorted[run_start];
+    }
+    drop(sorted);
+    // Then: representatives numbered in input order, duplicates pointed at them.
+    let mut next = 0u32;
+    for i in 0..n {
+        let rep = vertex_of_input[i] as usize;
+        if rep == i {
+            vertex_of_input[i] = next;
+            points[next as usize] = points[i];
+            next += 1;
+        } else {
+            vertex_of_input[i] = vertex_of_input[rep];
+        }
+    }
+    points.truncate(next as usize);
+    vertex_of_input
+}
+
+/// A per-axis translation under which every coordinate difference `x - shift` is exact
+/// (Sterbenz: `s/2 <= x <= 2s`), so predicates on shifted points equal those on the input;
+/// zero on axes where no such shift exists (coordinates spanning zero are small anyway).
+fn exact_shift(points: &[DVec3]) -> DVec3 {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for &p in points {
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    let mut shift = DVec3::ZERO;
+    for k in 0..3 {
+        let (a, b) = (lo[k], hi[k]);
+        let centre = 0.5 * a + 0.5 * b;
+        if (a > 0.0 && b <= 2.5 * a) || (b < 0.0 && a >= 2.5 * b) {
+            shift[k] = centre;
+        }
+    }
+    shift
+}
+
+/// Construction state: flat arrays of tetrahedra and reused buffers.
+struct Builder<'a> {
+    pts: &'a [DVec3],
+    /// Vertex ids; [`INF`] in ghosts; `[DEAD, ..]` for free slots.
+    tets: Vec<[u32; 4]>,
+    /// `t2 * 4 + j` across the face opposite vertex `i`.
+    nbrs: Vec<[u32; 4]>,
+    free: Vec<u32>,
+    /// Bit per tetrahedron: in the current cavity.
+    in_cavity: Vec<u64>,
+    /// Bit per tetrahedron: tested against the current point and not in conflict.
+    tested: Vec<u64>,
+    cavity: Vec<u32>,
+    tested_list: Vec<u32>,
+    /// New tetrahedra: vertices, apex position, link to the outside of the cavity.
+    pending: Vec<([u32; 4], u32, u32)>,
+    new_tets: Vec<u32>,
+    edge_table: Vec<(u64, u32)>,
+    last: u32,
+    rng: u64,
+}
+
+#[inline]
+fn bit(bits: &[u64], t: u32) -> bool {
+    bits[(t >> 6) as usize] & (1u64 << (t & 63)) != 0
+}
+
+#[inline]
+fn set_bit(bits: &mut [u64], t: u32, on: bool) {
+    let w = &mut bits[(t >> 6) as usize];
+    if on {
+        *w |= 1u64 << (t & 63);
+    } else {
+        *w &= !(1u64 << (t & 63));
+    }
+}
+
+impl<'a> Builder<'a> {
+    #[allow(clippy::type_complexity)]
+    fn run(
+        pts: &'a [DVec3],
+        progress: &dyn Progress,
+    ) -> Result<(Vec<[u32; 4]>, Vec<[u32; 4]>), TetError> {
+        let first = initial_simplex(pts)?;
+        // Uniform points give ~6.7 tetrahedra per point; pages are touched only when used.
+        let estimate = pts.len().saturating_mul(7) + 64;
+        let mut b = Builder {
+            pts,
+            tets: Vec::with_capacity(estimate),
+            nbrs: Vec::with_capacity(estimate),
+            free: Vec::new(),
+            in_cavity: Vec::new(),
+            tested: Vec::new(),
+            cavity: Vec::new(),
+            tested_list: Vec::new(),
+            pending: Vec::new(),
+            new_tets: Vec::new(),
+            edge_table: Vec::new(),
+            last: 0,
+            rng: 0x2545_F491_4F6C_DD1D,
+        };
+        b.start(first);
+        let total = pts.len();
+        for v in 0..total as u32 {
+            if (v as usize).is_multiple_of(CHECK_EVERY) {
+                if progress.is_cancelled() {
+                    return Err(TetError::Cancelled);
+                }
+                progress.report("tetrahedralize", v as f64 / total as f64);
+            }
+            if !first.contains(&v) {
+                b.insert(v);
+            }
+        }
+        progress.report("tetrahedralize", 1.0);
+        Ok(b.finish())
+    }
+
+    #[inline]
+    fn p(&self, v: u32) -> DVec3 {
+        self.pts[v as usize]
+    }
+
+    #[inline]
+    fn next_random(&mut self) -> u32 {
+        // xorshift64
+        self.rng ^= self.rng << 13;
+        self.rng ^= self.rng >> 7;
+        self.rng ^= self.rng << 17;
+        (self.rng >> 32) as u32
+    }
+
+    fn alloc(&mut self) -> u32 {
+        if let Some(t) = self.free.pop() {
+            return t;
+        }
+        let t = self.tets.len() as u32;
+        self.tets.push([DEAD; 4]);
+        self.nbrs.push([NO_NEIGHBOUR; 4]);
+        let words = self.tets.len().div_ceil(64);
+        if self.in_cavity.len() < words {
+            self.in_cavity.resize(words, 0);
+            self.tested.resize(words, 0);
+        }
+        t
+    }
+
+    /// The first tetrahedron and its four ghosts.
+    fn start(&mut self, [a, b, c, d]: [u32; 4]) {
+        let (a, b) =
+            if predicates::orient(self.p(a), self.p(b), self.p(c), self.p(d)) == Sign::Positive {
+                (a, b)
+            } else {
+                (b, a)
+            };
+        let finite = [a, b, c, d];
+        let t0 = self.alloc();
+        self.tets[t0 as usize] = finite;
+        for f in 0..4 {
+            let g = self.alloc();
+            let mut tv = finite;
+            tv[f] = INF;
+            // Swapping two other vertices puts the infinite vertex outside the face.
+            tv.swap((f + 1) % 4, (f + 2) % 4);
+            self.tets[g as usize] = tv;
+        }
+        // Match the 20 faces pairwise.
+        let faces: Vec<([u32; 3], u32)> = (0..5u32)
+            .flat_map(|t| (0..4u32).map(move |i| (t, i)))
+            .map(|(t, i)| {
+                let tv = self.tets[t as usize];
+                let mut key = [0u32; 3];
+                let mut n = 0;
+                for (k, &v) in tv.iter().enumerate() {
+                    if k as u32 != i {
+                        key[n] = v;
+                        n += 1;
+                    }
+                }
+                key.sort_unstable();
+                (key, t * 4 + i)
+            })
+            .collect();
+        for x in &faces {
+            for y in &faces {
+                if x.0 == y.0 && x.1 >> 2 != y.1 >> 2 {
+                    self.nbrs[(x.1 >> 2) as usize][(x.1 & 3) as usize] = y.1;
+                }
+            }
+        }
+        self.last = t0;
+    }
+
+    /// Does `q` conflict with tetrahedron `t` (inside its perturbed circumsphere, or for a
+    /// ghost, strictly beyond its hull face or on it inside the face's circumcircle)?
+    fn conflict(&self, t: u32, q: DVec3) -> bool {
+        let tv = self.tets[t as usize];
+        if let Some(k) = tv.iter().position(|&v| v == INF) {
+            let mut r = [q; 4];
+            for (i, slot) in r.iter_mut().enumerate() {
+                if i != k {
+                    *slot = self.p(tv[i]);
+                }
+            }
+            match predicates::orient(r[0], r[1], r[2], r[3]) {
+                Sign::Positive => true,
+                Sign::Negative => false,
+                Sign::Zero => {
+                    let face = [r[(k + 1) % 4], r[(k + 2) % 4], r[(k + 3) % 4]];
+                    predicates::in_circle_coplanar_perturbed(face[0], face[1], face[2], q)
+                }
+            }
+        } else {
+            predicates::in_sphere_perturbed(tv.map(|v| self.p(v)), q)
+        }
+    }
+
+    /// Visibility walk from the last created tetrahedron to one in conflict with `q`: a
+    /// finite tetrahedron containing `q`, or a ghost whose hull face `q` is strictly beyond.
+    fn locate(&mut self, q: DVec3) -> u32 {
+        let mut t = self.last;
+        if let Some(k) = self.tets[t as usize].iter().position(|&v| v == INF) {
+            t = self.nbrs[t as usize][k] >> 2;
+        }
+        loop {
+            let tv = self.tets[t as usize];
+            if tv.contains(&INF) {
+                return t;
+            }
+            let p = tv.map(|v| self.p(v));
+            let start = self.next_random();
+            let mut next = None;
+            for s in 0..4u32 {
+                let f = ((start + s) & 3) as usize;
+                let mut r = p;
+                r[f] = q;
+                if predicates::orient(r[0], r[1], r[2], r[3]) == Sign::Negative {
+                    next = Some(self.nbrs[t as usize][f] >> 2);
+                    break;
+                }
+            }
+            match next {
+                Some(n) => t = n,
+                None => return t,
+            }
+        }
+    }
+
+    /// Inserts vertex `v`: grows the conflict cavity breadth-first and stars it from `v`.
+    fn insert(&mut self, v: u32) {
+        let q = self.p(v);
+        let t0 = self.locate(q);
+        self.cavity.clear();
+        self.tested_list.clear();
+        self.pending.clear();
+        set_bit(&mut self.in_cavity, t0, true);
+        self.cavity.push(t0);
+        let mut i = 0;
+        while i < self.cavity.len() {
+            let t = self.cavity[i];
+            i += 1;
+            for f in 0..4 {
+                let link = self.nbrs[t as usize][f];
+                let t2 = link >> 2;
+                if bit(&self.in_cavity, t2) {
+                    continue;
+                }
+                if !bit(&self.tested, t2) {
+                    if self.conflict(t2, q) {
+                        set_bit(&mut self.in_cavity, t2, true);
+                        self.cavity.push(t2);
+                        continue;
+                    }
+                    set_bit(&mut self.tested, t2, true);
+                    self.tested_list.push(t2);
+                }
+                let mut tv = self.tets[t as usize];
+                tv[f] = v;
+                self.pending.push((tv, f as u32, link));
+            }
+        }
+        for k in 0..self.tested_list.len() {
+            set_bit(&mut self.tested, self.tested_list[k], false);
+        }
+        for k in 0..self.cavity.len() {
+            let t = self.cavity[k];
+            set_bit(&mut self.in_cavity, t, false);
+            self.tets[t as usize][0] = DEAD;
+            self.free.push(t);
+        }
+        self.new_tets.clear();
+        for k in 0..self.pending.len() {
+            let (tv, f, link) = self.pending[k];
+            let s = self.alloc();
+            self.tets[s as usize] = tv;
+            self.nbrs[s as usize][f as usize] = link;
+            self.nbrs[(link >> 2) as usize][(link & 3) as usize] = s * 4 + f;
+            self.new_tets.push(s);
+        }
+        self.link_new_tets();
+        self.last = self
+            .new_tets
+            .iter()
+            .copied()
+            .find(|&s| !self.tets[s as usize].contains(&INF))
+            .unwrap_or(self.new_tets[0]);
+    }
+
+    /// Links the new tetrahedra to each other: two of them share a face through the new
+    /// vertex exactly when they share the cavity-boundary edge opposite it.
+    fn link_new_tets(&mut self) {
+        let size = (self.new_tets.len() * 6).next_power_of_two().max(16);
+        if self.edge_table.len() < size {
+            self.edge_table.resize(size, (EMPTY, 0));
+        }
+        let mask = size - 1;
+        self.edge_table[..size].fill((EMPTY, 0));
+        for k in 0..self.new_tets.len() {
+            let s = self.new_tets[k];
+            let (_, apex, _) = self.pending[k];
+            let tv = self.tets[s as usize];
+            for j in 0..4u32 {
+                if j == apex {
+                    continue;
+                }
+                let mut e = [0u32; 2];
+                let mut n = 0;
+                for (pos, &vert) in tv.iter().enumerate() {
+                    if pos as u32 != apex && pos as u32 != j {
+                        e[n] = vert;
+                        n += 1;
+                    }
+                }
+                let key = (u64::from(e[0].min(e[1])) << 32) | u64::from(e[0].max(e[1]));
+                let mut h = (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40) as usize & mask;
+                loop {
+                    let (slot_key, slot_link) = self.edge_table[h];
+                    if slot_key == EMPTY {
+                        self.edge_table[h] = (key, s * 4 + j);
+                        break;
+                    }
+                    if slot_key == key {
+                        self.nbrs[s as usize][j as usize] = slot_link;
+                        self.nbrs[(slot_link >> 2) as usize][(slot_link & 3) as usize] = s * 4 + j;
+                        break;
+                    }
+                    h = (h + 1) & mask;
+                }
+            }
+        }
+    }
+
+    /// Strips ghosts and free slots in place (moving tetrahedra from the end into holes)
+    /// and returns the finite tetrahedra with hull faces marked [`NO_NEIGHBOUR`].
+    fn finish(self) -> (Vec<[u32; 4]>, Vec<[u32; 4]>) {
+        let Builder {
+            mut tets, mut nbrs, ..
+        } = self;
+        for t in 0..tets.len() {
+            if tets[t][0] == DEAD {
+                continue;
+            }
+            if let Some(k) = tets[t].iter().position(|&v| v == INF) {
+                let link = nbrs[t][k];
+                nbrs[(link >> 2) as usize][(link & 3) as usize] = NO_NEIGHBOUR;
+                tets[t][0] = DEAD;
+            }
+        }
+        let live = tets.iter().filter(|tv| tv[0] != DEAD).count();
+        let mut top = tets.len();
+        for d in 0..live {
+            if tets[d][0] != DEAD {
+                continue;
+            }
+            loop {
+                top -= 1;
+                if tets[top][0] != DEAD {
+                    break;
+                }
+            }
+            tets[d] = tets[top];
+            nbrs[d] = nbrs[top];
+            for i in 0..4 {
+                let link = nbrs[d][i];
+                if link != NO_NEIGHBOUR {
+                    nbrs[(link >> 2) as usize][(link & 3) as usize] = d as u32 * 4 + i as u32;
+                }
+            }
+        }
+        tets.truncate(live);
+        nbrs.truncate(live);
+        tets.shrink_to_fit();
+        nbrs.shrink_to_fit();
+        (tets, nbrs)
+    }
+}
+
+/// Four affinely independent vertices, the first ones in insertion order (vertex ids), so
+/// the first tetrahedron comes from the first BRIO round.
+fn initial_simplex(pts: &[DVec3]) -> Result<[u32; 4], TetError> {
+    let p = |v: u32| pts[v as usize];
+    let n = pts.len() as u32;
+    let (a, b) = (0, 1);
+    let c = (2..n)
+        .find(|&c| !predicates::collinear(p(a), p(b), p(c)))
+        .ok_or(TetError::AllCoplanar)?;
+    let d = (2..n)
+        .find(|&d| predicates::orient(p(a), p(b), p(c), p(d)) != Sign::Zero)
+        .ok_or(TetError::AllCoplanar)?;
+    Ok([a, b, c, d])
+}

@@ -1,0 +1,314 @@
+//! The whole pipeline on analytic bodies sampled by vertical wells at UTM coordinates:
+//! what a geologist relies on (one closed body, honest volume and area).
+
+use glam::DVec3;
+use wellmesh::contour::{self, Anisotropy, ContourRequest, UnknownMode};
+use wellmesh::dmt::{Method, Placement};
+use wellmesh::progress::NoProgress;
+use wellmesh::wells::{ReadReport, SampleSet, Well};
+
+const UTM: DVec3 = DVec3::new(512_345.0, 7_012_345.0, 0.0);
+
+/// A small deterministic generator (splitmix64) so the tests need no RNG crate.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// Vertical wells on a jittered `n x n` grid `spacing` apart, sampled every `step` metres
+/// from `top` down to `bottom`, valued by `field` (world coordinates).
+fn wells(
+    n: usize,
+    spacing: f64,
+    step: f64,
+    top: f64,
+    bottom: f64,
+    seed: u64,
+    mut field: impl FnMut(DVec3) -> Option<f64>,
+) -> SampleSet {
+    let mut rng = Rng(seed);
+    let mut world = Vec::new();
+    let mut values = Vec::new();
+    let mut well_of = Vec::new();
+    let mut collars = Vec::new();
+    let half = (n as f64 - 1.0) * spacing / 2.0;
+    for i in 0..n {
+        for j in 0..n {
+            let x = UTM.x - half + i as f64 * spacing + (rng.next() - 0.5) * spacing * 0.3;
+            let y = UTM.y - half + j as f64 * spacing + (rng.next() - 0.5) * spacing * 0.3;
+            collars.push(DVec3::new(x, y, top));
+            let mut z = top;
+            while z >= bottom {
+                let p = DVec3::new(x, y, z);
+                world.push(p);
+                values.push(field(p));
+                well_of.push((collars.len() - 1) as u32);
+                z -= step;
+            }
+        }
+    }
+    let (lo, hi) = world.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    let origin = (lo + hi) / 2.0;
+    let unknown_values = values.iter().filter(|v| v.is_none()).count();
+    SampleSet {
+        origin,
+        crs: Some("EPSG:32633".into()),
+        unit: "m".into(),
+        wells: collars
+            .iter()
+            .enumerate()
+            .map(|(k, c)| Well {
+                id: format!("W{k}"),
+                collar: *c - origin,
+                trace: vec![*c - origin, DVec3::new(c.x, c.y, bottom) - origin],
+            })
+            .collect(),
+        points: world.iter().map(|p| *p - origin).collect(),
+        values,
+        well_of,
+        report: ReadReport {
+            rows_read: world.len(),
+            unknown_values,
+            warnings: vec![],
+            ..ReadReport::default()
+        },
+    }
+}
+
+fn request(samples: SampleSet, thresholds: Vec<f64>, method: Option<Method>) -> ContourRequest {
+    ContourRequest {
+        method,
+        ..ContourRequest::new(samples, thresholds)
+    }
+}
+
+/// Ellipsoid semi-axes and centre (world).
+const AXES: DVec3 = DVec3::new(180.0, 130.0, 70.0);
+fn centre() -> DVec3 {
+    UTM + DVec3::new(7.0, -4.0, -120.0)
+}
+fn ellipsoid_grade(p: DVec3) -> f64 {
+    let q = (p - centre()) / AXES;
+    2.0 * (1.0 - q.length_squared())
+}
+
+fn ellipsoid_area(a: f64, b: f64, c: f64) -> f64 {
+    // Surface integral over the (theta, phi) parametrisation, midpoint rule.
+    let n = 2000;
+    let mut area = 0.0;
+    for i in 0..n {
+        let theta = (i as f64 + 0.5) * std::f64::consts::PI / n as f64;
+        for j in 0..2 * n {
+            let phi = (j as f64 + 0.5) * std::f64::consts::PI / n as f64;
+            let (st, ct, sp, cp) = (theta.sin(), theta.cos(), phi.sin(), phi.cos());
+            let dtheta = DVec3::new(a * ct * cp, b * ct * sp, -c * st);
+            let dphi = DVec3::new(-a * st * sp, b * st * cp, 0.0);
+            area += dtheta.cross(dphi).length();
+        }
+    }
+    area * (std::f64::consts::PI / n as f64).powi(2)
+}
+
+#[test]
+fn an_ellipsoid_grade_body_from_utm_wells_is_one_closed_body_with_the_right_volume() {
+    let samples = wells(17, 25.0, 2.0, 0.0, -240.0, 7, |p| Some(ellipsoid_grade(p)));
+    let result = contour::run(
+        &request(samples, vec![0.0], Some(Method::Dmt(Placement::Ibc))),
+        &NoProgress,
+    )
+    .expect("contour");
+    assert_eq!(result.shells.len(), 1);
+    let shell = &result.shells[0];
+    assert_eq!(shell.bodies.len(), 1, "one body");
+    let body = &shell.bodies[0];
+    assert!(body.closed, "closed and consistently wound");
+    assert!(!body.truncated, "the body lies inside the drilling");
+    let exact_volume = 4.0 / 3.0 * std::f64::consts::PI * AXES.x * AXES.y * AXES.z;
+    let exact_area = ellipsoid_area(AXES.x, AXES.y, AXES.z);
+    let dv = (body.volume - exact_volume) / exact_volume;
+    let da = (body.area - exact_area) / exact_area;
+    eprintln!("volume error {dv:+.4}, area error {da:+.4}");
+    assert!(
+        dv.abs() < 0.03,
+        "volume {} vs exact {exact_volume} ({dv:+.4})",
+        body.volume
+    );
+    assert!(
+        da.abs() < 0.05,
+        "area {} vs exact {exact_area} ({da:+.4})",
+        body.area
+    );
+    // The summary is in input (world) coordinates.
+    let s = &result.summary.shells[0];
+    assert_eq!(s.bodies[0].volume, body.volume);
+    let [lo, hi] = s.bodies[0].bbox;
+    let c = centre();
+    assert!((lo[0] - (c.x - AXES.x)).abs() < 30.0 && (hi[1] - (c.y + AXES.y)).abs() < 30.0);
+    assert!((lo[2] - (c.z - AXES.z)).abs() < 10.0);
+}
+
+#[test]
+fn binary_wells_give_a_closed_body_with_curvature_by_default() {
+    let samples = wells(13, 30.0, 2.0, 0.0, -240.0, 11, |p| {
+        Some(if ellipsoid_grade(p) >= 0.0 { 1.0 } else { 0.0 })
+    });
+    let result = contour::run(&request(samples, vec![], None), &NoProgress).expect("contour");
+    assert_eq!(result.summary.method, "curvature");
+    assert!(result.summary.binary);
+    let shell = &result.shells[0];
+    assert_eq!(shell.threshold, 0.5);
+    assert_eq!(shell.bodies.len(), 1);
+    assert!(shell.bodies[0].closed);
+    let exact_volume = 4.0 / 3.0 * std::f64::consts::PI * AXES.x * AXES.y * AXES.z;
+    let dv = (shell.bodies[0].volume - exact_volume) / exact_volume;
+    eprintln!("binary volume error {dv:+.4}");
+    assert!(
+        dv.abs() < 0.15,
+        "binary data brackets the body only to the sample spacing: {dv}"
+    );
+}
+
+#[test]
+fn a_body_cut_by_the_edge_of_the_drilling_is_capped_and_truncated() {
+    // The ellipsoid's centre sits on the east edge of the well grid.
+    let samples = wells(12, 25.0, 2.0, 0.0, -240.0, 5, |p| {
+        Some(ellipsoid_grade(p - DVec3::new(137.5, 0.0, 0.0)))
+    });
+    let result = contour::run(&request(samples, vec![0.0], None), &NoProgress).expect("contour");
+    let shell = &result.shells[0];
+    assert_eq!(shell.bodies.len(), 1);
+    assert!(shell.bodies[0].closed);
+    assert!(shell.bodies[0].truncated);
+    assert!(result.summary.shells[0].bodies[0].truncated);
+}
+
+#[test]
+fn nested_grade_shells_share_one_tetrahedralization_and_shrink_with_the_threshold() {
+    let samples = wells(13, 25.0, 2.0, 0.0, -240.0, 3, |p| Some(ellipsoid_grade(p)));
+    let result =
+        contour::run(&request(samples, vec![0.0, 0.5, 1.0], None), &NoProgress).expect("contour");
+    let volumes: Vec<f64> = result.summary.shells.iter().map(|s| s.volume).collect();
+    assert_eq!(volumes.len(), 3);
+    assert!(
+        volumes[0] > volumes[1] && volumes[1] > volumes[2] && volumes[2] > 0.0,
+        "{volumes:?}"
+    );
+    assert!(
+        result
+            .shells
+            .iter()
+            .all(|s| s.bodies.iter().all(|b| b.closed))
+    );
+}
+
+#[test]
+fn unknown_bounds_bracket_the_answer() {
+    // Every fifth sample is "don't know".
+    let mut k = 0;
+    let samples = wells(13, 25.0, 2.0, 0.0, -240.0, 9, |p| {
+        k += 1;
+        (k % 5 != 0).then(|| if ellipsoid_grade(p) >= 0.0 { 1.0 } else { 0.0 })
+    });
+    let unknown = samples.values.iter().filter(|v| v.is_none()).count();
+    let mut req = request(samples, vec![0.5], Some(Method::Dmt(Placement::Midpoint)));
+    req.unknown = UnknownMode::Bounds;
+    let result = contour::run(&req, &NoProgress).expect("contour");
+    assert_eq!(result.summary.counts["unknown_dropped"], unknown);
+    let s = &result.summary.shells[0];
+    let range = s.volume_range.as_ref().expect("bounds requested");
+    assert!(
+        range.pessimistic <= s.volume && s.volume <= range.optimistic,
+        "{range:?} vs {}",
+        s.volume
+    );
+    assert!(range.pessimistic < range.optimistic);
+}
+
+#[test]
+fn anisotropy_is_inverted_on_output() {
+    let samples = wells(13, 25.0, 2.0, 0.0, -240.0, 4, |p| Some(ellipsoid_grade(p)));
+    let plain =
+        contour::run(&request(samples.clone(), vec![0.0], None), &NoProgress).expect("contour");
+    let mut req = request(samples, vec![0.0], None);
+    req.anisotropy = Some(Anisotropy::scale(DVec3::new(1.0, 1.0, 5.0)));
+    let stretched = contour::run(&req, &NoProgress).expect("contour");
+    let (a, b) = (&plain.shells[0].bodies[0], &stretched.shells[0].bodies[0]);
+    assert!(b.closed);
+    // Same body in the same place, whichever frame the mesh was built in.
+    assert!(
+        ((a.volume - b.volume) / a.volume).abs() < 0.05,
+        "{} vs {}",
+        a.volume,
+        b.volume
+    );
+    assert!((a.bbox[0] - b.bbox[0]).length() < 15.0 && (a.bbox[1] - b.bbox[1]).length() < 15.0);
+
+    // A rotated frame (azimuth 30, dip 20) maps back too.
+    let mut req = request(plain.samples.clone(), vec![0.0], None);
+    req.anisotropy = Some(Anisotropy {
+        scale: DVec3::new(0.5, 1.0, 2.0),
+        azimuth_deg: 30.0,
+        dip_deg: 20.0,
+    });
+    let rotated = contour::run(&req, &NoProgress).expect("contour");
+    let c = &rotated.shells[0].bodies[0];
+    assert!(c.closed);
+    assert!(
+        ((a.volume - c.volume) / a.volume).abs() < 0.05,
+        "{} vs {}",
+        a.volume,
+        c.volume
+    );
+    assert!((a.bbox[0] - c.bbox[0]).length() < 15.0 && (a.bbox[1] - c.bbox[1]).length() < 15.0);
+}
+
+#[test]
+fn the_anisotropy_matrix_is_a_rotation_then_a_scale() {
+    let m = Anisotropy::scale(DVec3::new(2.0, 3.0, 4.0)).matrix();
+    assert!((m * DVec3::new(1.0, 1.0, 1.0) - DVec3::new(2.0, 3.0, 4.0)).length() < 1e-12);
+    let r = Anisotropy {
+        scale: DVec3::ONE,
+        azimuth_deg: 0.0,
+        dip_deg: 0.0,
+    }
+    .matrix();
+    // Azimuth 0 is north: north becomes the first axis.
+    assert!((r * DVec3::Y - DVec3::X).length() < 1e-12);
+    assert!((r.determinant() - 1.0).abs() < 1e-12);
+    let d = Anisotropy {
+        scale: DVec3::ONE,
+        azimuth_deg: 90.0,
+        dip_deg: 30.0,
+    }
+    .matrix();
+    // Dipping 30 degrees: a line going north and down 30 degrees becomes horizontal.
+    let down_dip = DVec3::new(0.0, 30f64.to_radians().cos(), -30f64.to_radians().sin());
+    assert!((d * down_dip - DVec3::Y).length() < 1e-12);
+}
+
+#[test]
+fn requests_without_known_samples_or_with_bad_thresholds_are_refused() {
+    let samples = wells(3, 25.0, 5.0, 0.0, -20.0, 1, |_| None);
+    assert!(matches!(
+        contour::run(&request(samples.clone(), vec![0.5], None), &NoProgress),
+        Err(contour::ContourError::NoKnownSamples { .. })
+    ));
+    let samples = wells(3, 25.0, 5.0, 0.0, -20.0, 1, |p| Some(p.z));
+    assert!(matches!(
+        contour::run(&request(samples.clone(), vec![], None), &NoProgress),
+        Err(contour::ContourError::NoThresholds)
+    ));
+    assert!(matches!(
+        contour::run(&request(samples, vec![f64::NAN], None), &NoProgress),
+        Err(contour::ContourError::BadThreshold(_))
+    ));
+}
