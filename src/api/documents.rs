@@ -148,6 +148,32 @@ fn rfc3339(ms: i64) -> String {
     humantime::format_rfc3339_millis(time).to_string()
 }
 
+/// `scheme://host` of this server as the client reached it (`X-Forwarded-Proto` and
+/// `X-Forwarded-Host` from a reverse proxy win over `Host`); empty when unknown, which
+/// leaves links as absolute paths.
+pub fn base_url(headers: &axum::http::HeaderMap) -> String {
+    let header = |name: &str| {
+        headers
+            .get(name)
+            .and_then(|v| v.to_str().ok())
+            .and_then(|v| v.split(',').next())
+            .map(str::trim)
+            .filter(|v| {
+                !v.is_empty()
+                    && v.chars()
+                        .all(|c| c.is_ascii_alphanumeric() || "-.:[]_".contains(c))
+            })
+    };
+    let Some(host) = header("x-forwarded-host").or_else(|| header("host")) else {
+        return String::new();
+    };
+    let scheme = match header("x-forwarded-proto") {
+        Some("https") => "https",
+        _ => "http",
+    };
+    format!("{scheme}://{host}")
+}
+
 pub fn job_href(id: &uuid::Uuid) -> String {
     format!("/jobs/{id}")
 }

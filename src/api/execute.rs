@@ -15,7 +15,7 @@ use serde::Deserialize;
 use serde_json::{Map, Value};
 
 use super::AppState;
-use super::documents::{PROCESS_ID, StatusInfo, job_href};
+use super::documents::{PROCESS_ID, StatusInfo, base_url, job_href};
 use super::jobs::results_for;
 use super::problem::Problem;
 use crate::jobs::{FailureKind, JobState, ProcessInputs, now_ms};
@@ -126,7 +126,7 @@ pub async fn execute(
         .filter_map(|v| v.to_str().ok())
         .any(|v| v.to_ascii_lowercase().contains("respond-async"));
     if prefers_async || inputs.point_count() > state.config.sync_max_points {
-        return Ok(accepted(&job, prefers_async));
+        return Ok(accepted(&job, prefers_async, &headers));
     }
     // Synchronous: wait for a worker (here or on another node) to finish the job.
     let deadline = Instant::now() + state.config.sync_wait;
@@ -141,7 +141,8 @@ pub async fn execute(
             JobState::Successful => {
                 let document = results_for(&state, &current).await?;
                 let mut response = Json(document).into_response();
-                if let Ok(location) = HeaderValue::from_str(&job_href(&job.id)) {
+                let location = format!("{}{}", base_url(&headers), job_href(&job.id));
+                if let Ok(location) = HeaderValue::from_str(&location) {
                     response.headers_mut().insert(header::LOCATION, location);
                 }
                 return Ok(response);
@@ -166,17 +167,22 @@ pub async fn execute(
             JobState::Accepted | JobState::Running => {}
         }
         if Instant::now() >= deadline {
-            return Ok(accepted(&current, false));
+            return Ok(accepted(&current, false, &headers));
         }
         tokio::time::sleep(pause).await;
         pause = (pause * 2).min(Duration::from_millis(250));
     }
 }
 
-fn accepted(job: &crate::jobs::JobRecord, preference_applied: bool) -> Response {
+fn accepted(
+    job: &crate::jobs::JobRecord,
+    preference_applied: bool,
+    request_headers: &HeaderMap,
+) -> Response {
     let mut response = (StatusCode::CREATED, Json(StatusInfo::from_record(job))).into_response();
+    let location = format!("{}{}", base_url(request_headers), job_href(&job.id));
     let headers = response.headers_mut();
-    if let Ok(location) = HeaderValue::from_str(&job_href(&job.id)) {
+    if let Ok(location) = HeaderValue::from_str(&location) {
         headers.insert(header::LOCATION, location);
     }
     if preference_applied {

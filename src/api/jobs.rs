@@ -6,14 +6,14 @@
 
 use axum::Json;
 use axum::extract::{Path, RawQuery, State};
-use axum::http::{HeaderValue, header};
+use axum::http::{HeaderMap, HeaderValue, header};
 use axum::response::{IntoResponse, Response};
 use uuid::Uuid;
 
 use super::AppState;
 use super::documents::{
     ConformanceDeclaration, JobList, LandingPage, Link, OPENAPI_MEDIA_TYPE, PROCESS_ID,
-    ProcessDescription, ProcessList, StatusInfo, conformance as conformance_doc,
+    ProcessDescription, ProcessList, StatusInfo, base_url, conformance as conformance_doc,
     process_description, process_summary, results_document,
 };
 use super::problem::Problem;
@@ -22,8 +22,9 @@ use crate::jobs::{Dismissal, JobRecord, JobState, now_ms};
 /// Landing page with links to the API description, conformance and processes.
 #[utoipa::path(get, path = "/", tag = "Capabilities",
     responses((status = 200, description = "Landing page", body = LandingPage)))]
-pub async fn landing_page() -> Json<LandingPage> {
-    Json(LandingPage {
+pub async fn landing_page(headers: HeaderMap) -> Json<LandingPage> {
+    let base = base_url(&headers);
+    let mut page = LandingPage {
         title: "wellmesh".to_string(),
         description: "Closed ore-body surfaces from wells and drill holes (OGC API - Processes)"
             .to_string(),
@@ -61,7 +62,12 @@ pub async fn landing_page() -> Json<LandingPage> {
             ),
             Link::new("/viewer", "alternate", "text/html", "3D viewer"),
         ],
-    })
+    };
+    // OGC clients follow these links as they are: make them absolute.
+    for link in &mut page.links {
+        link.href = format!("{base}{}", link.href);
+    }
+    Json(page)
 }
 
 /// Conformance classes implemented.

@@ -1,12 +1,12 @@
 //! Subcommands of the `wellmesh` binary, one file each.
 
 pub mod contour;
-pub mod openapi;
-pub mod serve;
 pub mod grid_input;
 pub mod input;
 pub mod inspect;
+pub mod openapi;
 pub mod outputs;
+pub mod serve;
 pub mod tetrahedralize;
 pub mod worker;
 
