@@ -307,8 +307,14 @@ async fn respond_async_answers_201_with_location_and_the_job_completes() {
     let status = answer.json();
     assert_eq!(
         location,
-        format!("/jobs/{}", status["jobID"].as_str().unwrap())
+        format!(
+            "http://wellmesh.test/jobs/{}",
+            status["jobID"].as_str().unwrap()
+        )
     );
+    let location = location
+        .trim_start_matches("http://wellmesh.test")
+        .to_string();
     assert_eq!(status["processID"], "dmt-contour");
     assert_eq!(status["type"], "process");
     assert!(["accepted", "running", "successful"].contains(&status["status"].as_str().unwrap()));
