@@ -34,6 +34,43 @@ pub struct ExecuteRequest {
     pub response: Option<String>,
 }
 
+/// The multipart form of an execution: one part per input.
+#[derive(Debug, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
+#[allow(dead_code)]
+pub struct MultipartInputs {
+    /// Wells JSON file.
+    #[schema(value_type = Option<String>, format = Binary)]
+    wells: Option<String>,
+    /// Samples CSV file.
+    #[schema(value_type = Option<String>, format = Binary)]
+    samples_csv: Option<String>,
+    /// Collar table CSV file.
+    #[schema(value_type = Option<String>, format = Binary)]
+    collars_csv: Option<String>,
+    /// Survey table CSV file.
+    #[schema(value_type = Option<String>, format = Binary)]
+    surveys_csv: Option<String>,
+    /// Interval table CSV file.
+    #[schema(value_type = Option<String>, format = Binary)]
+    intervals_csv: Option<String>,
+    /// Thresholds: a number, a JSON array or comma-separated numbers.
+    thresholds: String,
+    variable: Option<String>,
+    /// Inside codes: JSON array or comma-separated.
+    inside: Option<String>,
+    composite_length: Option<f64>,
+    crs: Option<String>,
+    unit: Option<String>,
+    method: Option<String>,
+    unknown: Option<String>,
+    /// `sx,sy,sz` or a JSON array.
+    anisotropy: Option<String>,
+    min_volume: Option<f64>,
+    /// A JSON object of further inputs.
+    inputs: Option<String>,
+}
+
 /// Runs the dmt-contour process.
 #[utoipa::path(
     post,
@@ -47,7 +84,7 @@ pub struct ExecuteRequest {
         description = "An OGC execute request `{\"inputs\": {...}}`, or multipart/form-data with one part per input (CSV files as file parts)",
         content(
             (ExecuteRequest = "application/json"),
-            (Object = "multipart/form-data"),
+            (MultipartInputs = "multipart/form-data"),
         ),
     ),
     responses(

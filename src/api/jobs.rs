@@ -141,7 +141,11 @@ pub async fn list_jobs(
     }
     let jobs = state.store.list(limit).await?;
     Ok(Json(JobList {
-        jobs: jobs.iter().map(StatusInfo::from_record).collect(),
+        jobs: jobs
+            .iter()
+            .filter(|job| job.state != JobState::Dismissed)
+            .map(StatusInfo::from_record)
+            .collect(),
         links: vec![Link::new(
             format!("/jobs?limit={limit}"),
             "self",
@@ -157,10 +161,12 @@ fn parse_job_id(id: &str) -> Result<Uuid, Problem> {
 
 async fn load_job(state: &AppState, id: &str) -> Result<JobRecord, Problem> {
     let uuid = parse_job_id(id)?;
+    // A dismissed job is gone for clients; the row stays so its worker is fenced out.
     state
         .store
         .get(uuid)
         .await?
+        .filter(|job| job.state != JobState::Dismissed)
         .ok_or_else(|| Problem::no_such_job(id))
 }
 
@@ -182,7 +188,8 @@ pub async fn get_job(
     Ok(Json(StatusInfo::from_record(&job)))
 }
 
-/// Cancels a queued or running job, or deletes a finished job's results.
+/// Dismisses a job: a queued job never runs, a running one is cancelled, a finished
+/// one's results are deleted. Afterwards the job answers 404.
 #[utoipa::path(delete, path = "/jobs/{job_id}", tag = "Jobs",
     params(("job_id" = String, Path, description = "Job id")),
     responses(
@@ -196,7 +203,7 @@ pub async fn dismiss_job(
     State(state): State<AppState>,
     Path(job_id): Path<String>,
 ) -> Result<Json<StatusInfo>, Problem> {
-    let uuid = parse_job_id(&job_id)?;
+    let uuid = load_job(&state, &job_id).await?.id;
     match state.store.request_dismissal(uuid, now_ms()).await? {
         Dismissal::Dismissed(job) => {
             tracing::info!(job_id = %job.id, "job dismissed");

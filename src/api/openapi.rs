@@ -11,7 +11,7 @@ use super::documents::{
     ConformanceDeclaration, InputDescription, JobList, LandingPage, Link, OutputDescription,
     OutputLink, ProcessDescription, ProcessList, ProcessSummary, StatusInfo,
 };
-use super::execute::ExecuteRequest;
+use super::execute::{ExecuteRequest, MultipartInputs};
 use super::ops::Health;
 use super::problem::Problem;
 use crate::jobs::{JobState, ProcessInputs, Thresholds};
@@ -42,7 +42,7 @@ use crate::jobs::{JobState, ProcessInputs, Thresholds};
     components(schemas(
         Link, LandingPage, ConformanceDeclaration, ProcessSummary, ProcessList,
         InputDescription, OutputDescription, ProcessDescription, StatusInfo, JobList,
-        OutputLink, Problem, Health, ExecuteRequest, ProcessInputs, Thresholds, JobState,
+        OutputLink, Problem, Health, ExecuteRequest, MultipartInputs, ProcessInputs, Thresholds, JobState,
     )),
     modifiers(&BearerAuth),
     tags(

@@ -57,6 +57,7 @@ pub struct ProcessInputs {
     pub unknown: Option<String>,
     /// Per-axis scale `[sx, sy, sz]` applied before tetrahedralizing.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(min_items = 3, max_items = 3)]
     pub anisotropy: Option<[f64; 3]>,
     /// Bodies with a smaller volume (input units cubed) are left out.
     #[serde(default, skip_serializing_if = "Option::is_none")]
