@@ -7,8 +7,8 @@ Python 3 standard library only; seeded, so the output is the same on every run:
 
 copper_wells.csv  13 vertical wells, 9-43 samples each, value 1 inside the ellipsoid
                   ELLIPSOID below and 0 outside (the shape of the DMT paper's copper data).
-copper_grade.csv  42 vertical wells on a jittered 7 x 6 grid at UTM coordinates, one sample
-                  every 4 m, value = GRADE_PEAK * (1 - r^2) clipped at 0, where r is the
+copper_grade.csv  247 vertical wells on a jittered 19 x 13 grid (20 m) at UTM coordinates,
+                  one sample every 4 m, value = GRADE_PEAK * (1 - r^2) clipped at 0, where r is the
                   ellipsoidal radius of the same ellipsoid; the shell value >= t is the
                   ellipsoid scaled by sqrt(1 - t / GRADE_PEAK).
 
@@ -81,19 +81,19 @@ def copper_wells(rng):
 
 def grade_wells(rng):
     rows = []
-    nx, ny, spacing = 7, 6, 55.0
+    nx, ny, spacing = 19, 13, 20.0
     c, s = math.cos(math.radians(ROTATION_DEG)), math.sin(math.radians(ROTATION_DEG))
     for j in range(ny):
         for i in range(nx):
-            u = (i - (nx - 1) / 2) * spacing + rng.uniform(-10, 10)
-            v = (j - (ny - 1) / 2) * spacing + rng.uniform(-10, 10)
+            u = (i - (nx - 1) / 2) * spacing + rng.uniform(-4, 4)
+            v = (j - (ny - 1) / 2) * spacing + rng.uniform(-4, 4)
             x = CENTRE[0] + c * u - s * v
             y = CENTRE[1] + s * u + c * v
             top = CENTRE[2] + 80 + rng.uniform(-5, 5)
             z = top
             while z > CENTRE[2] - 80:
                 g = max(0.0, GRADE_PEAK * (1.0 - ellipsoid_radius2(x, y, z)))
-                rows.append((f"G-{j + 1}{i + 1}", x, y, z, round(g, 4)))
+                rows.append((f"G-{j + 1:02d}{i + 1:02d}", x, y, z, round(g, 4)))
                 z -= 4.0
     return rows
 

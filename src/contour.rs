@@ -205,12 +205,12 @@ pub fn is_binary(values: &[Option<f64>]) -> bool {
     any
 }
 
-/// The method used when the request names none: curvature for 0/1 data, IbC for grades.
+/// The method used when the request names none: the midpoint rule for 0/1 data, IbC for
+/// grades. (The curvature placement, selectable, roughens surfaces on the long thin
+/// tetrahedra of drilling data: see docs/dmt.md for the measurements.)
 pub fn default_method(binary: bool) -> Method {
     if binary {
-        Method::Dmt(Placement::Curvature {
-            lattice: crate::dmt::DEFAULT_CURVATURE_LATTICE,
-        })
+        Method::Dmt(Placement::Midpoint)
     } else {
         Method::Dmt(Placement::Ibc)
     }

@@ -157,12 +157,12 @@ fn an_ellipsoid_grade_body_from_utm_wells_is_one_closed_body_with_the_right_volu
 }
 
 #[test]
-fn binary_wells_give_a_closed_body_with_curvature_by_default() {
+fn binary_wells_give_a_closed_body_with_the_midpoint_rule_by_default() {
     let samples = wells(13, 30.0, 2.0, 0.0, -240.0, 11, |p| {
         Some(if ellipsoid_grade(p) >= 0.0 { 1.0 } else { 0.0 })
     });
     let result = contour::run(&request(samples, vec![], None), &NoProgress).expect("contour");
-    assert_eq!(result.summary.method, "curvature");
+    assert_eq!(result.summary.method, "midpoint");
     assert!(result.summary.binary);
     let shell = &result.shells[0];
     assert_eq!(shell.threshold, 0.5);
@@ -311,4 +311,71 @@ fn requests_without_known_samples_or_with_bad_thresholds_are_refused() {
         contour::run(&request(samples, vec![f64::NAN], None), &NoProgress),
         Err(contour::ContourError::BadThreshold(_))
     ));
+}
+
+/// Volume and area errors of every method and triangulation on the UTM ellipsoid wells:
+/// `cargo test --release --test contour_pipeline method_comparison -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn method_comparison() {
+    use wellmesh::dmt::{self, Triangulation};
+    let exact_volume = 4.0 / 3.0 * std::f64::consts::PI * AXES.x * AXES.y * AXES.z;
+    let exact_area = ellipsoid_area(AXES.x, AXES.y, AXES.z);
+    let binary = std::env::var("BINARY").is_ok();
+    let threshold = if binary { 0.5 } else { 0.0 };
+    for (spacing, step) in [(25.0, 2.0), (25.0, 1.0), (40.0, 2.0)] {
+        let n = (600.0 / spacing) as usize;
+        let samples = wells(n, spacing, step, 0.0, -240.0, 7, |p| {
+            let g = ellipsoid_grade(p);
+            Some(if binary {
+                f64::from(u8::from(g >= 0.0))
+            } else {
+                g
+            })
+        });
+        let points: Vec<DVec3> = samples.points.clone();
+        let values: Vec<f64> = samples.values.iter().map(|v| v.unwrap()).collect();
+        let mesh = wellmesh::tet::delaunay(&points, &NoProgress).unwrap();
+        let vals: Vec<f64> = {
+            let mut v = vec![0.0; mesh.points.len()];
+            for (i, &m) in mesh.vertex_of_input.iter().enumerate() {
+                v[m as usize] = values[i];
+            }
+            v
+        };
+        let report = |name: &str, shell: &dmt::Shell| {
+            let v: f64 = shell.bodies.iter().map(|b| b.volume).sum();
+            let a: f64 = shell.bodies.iter().map(|b| b.area).sum();
+            eprintln!(
+                "spacing {spacing} step {step} {name:28} volume {:+.4} area {:+.4} slivers {:.3} bodies {}",
+                v / exact_volume - 1.0,
+                a / exact_area - 1.0,
+                shell.quality.min_angle_under_10deg,
+                shell.bodies.len()
+            );
+        };
+        report(
+            "mt",
+            &dmt::mt::shell(&mesh, &vals, threshold, &NoProgress).unwrap(),
+        );
+        for placement in [
+            Placement::Ibc,
+            Placement::Coi,
+            Placement::Midpoint,
+            Placement::Curvature { lattice: 7 },
+        ] {
+            for tri in [
+                Triangulation::Star,
+                Triangulation::EdgeCrossing,
+                Triangulation::Fan,
+            ] {
+                let t0 = std::time::Instant::now();
+                let shell =
+                    dmt::extract_shell(&mesh, &vals, threshold, placement, tri, &NoProgress)
+                        .unwrap();
+                eprintln!("{:.3} s", t0.elapsed().as_secs_f64());
+                report(&format!("{placement:?} {tri:?}"), &shell);
+            }
+        }
+    }
 }

@@ -88,3 +88,67 @@ fn a_bad_dip_convention_value_is_a_usage_error() {
     let out = wellmesh(&["inspect", "--dip-down", "sideways", "x.csv"]);
     assert_eq!(out.status.code(), Some(2));
 }
+
+#[test]
+fn inspect_reads_a_las_directory_with_a_locations_table() {
+    let dir = "../shared/data/mcmurray_athabasca_las_subset";
+    if !std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join(dir)
+        .is_dir()
+    {
+        eprintln!("skipped: {dir} is absent");
+        return;
+    }
+    let out = wellmesh(&[
+        "inspect",
+        "--las",
+        &format!("{dir}/logs"),
+        "--locations",
+        &format!("{dir}/DERIVED_wells_utm12_kb_tops.csv"),
+        "--variable",
+        "GR",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["report"]["source"], "las");
+    assert_eq!(v["wells"], v["report"]["holes_read"]);
+}
+
+#[test]
+fn below_detection_flags_reach_the_reader() {
+    let dir = std::env::temp_dir().join(format!("wellmesh-bd-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let c = dir.join("c.csv");
+    let a = dir.join("a.csv");
+    std::fs::write(&c, "hole_id,x,y,z\nH,0,0,100\n").unwrap();
+    std::fs::write(
+        &a,
+        "hole_id,from,to,au\nH,0,1,-0.01\nH,1,2,<0.02\nH,2,3,1\n",
+    )
+    .unwrap();
+    let (c, a) = (c.to_str().unwrap(), a.to_str().unwrap());
+    let range = |extra: &[&str]| {
+        let mut args = vec!["inspect", "--collars", c, "--intervals", a, "--json"];
+        args.extend_from_slice(extra);
+        let out = wellmesh(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        (
+            v["value_range"][0].as_f64().unwrap(),
+            v["report"]["below_detection"].as_u64().unwrap(),
+        )
+    };
+    assert_eq!(range(&[]), (0.005, 2));
+    assert_eq!(range(&["--below-detection", "zero"]), (0.0, 2));
+    assert_eq!(range(&["--negative-values", "value"]), (-0.01, 1));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -239,3 +239,32 @@ fn shipped_curved_drill_holes_desurvey_every_assay_to_where_it_was_taken() {
         "the holes cross the body ({inside} samples inside)"
     );
 }
+
+#[test]
+fn an_inclination_column_desurveys_like_the_equivalent_dip() {
+    let (dip_input, ..) = tables_for_arc(-1.0);
+    let survey = String::from_utf8(dip_input.surveys_csv.clone().unwrap().bytes).unwrap();
+    let mut inc = String::from("HOLEID,AT,AZ,INCLINATION\n");
+    for line in survey.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let dip: f64 = f[3].parse().unwrap();
+        inc += &format!("{},{},{},{}\n", f[0], f[1], f[2], dip + 90.0);
+    }
+    let mut inc_input = dip_input.clone();
+    inc_input.surveys_csv = Some(InputFile::new("inc.csv", inc));
+    let (a, b) = (dip_input.load().unwrap(), inc_input.load().unwrap());
+    assert_eq!(
+        b.report.dip_convention.as_deref(),
+        Some("inclination (0 = down)")
+    );
+    for (p, q) in a.points.iter().zip(&b.points) {
+        assert!((*p + a.origin - (*q + b.origin)).length() < 1e-9);
+    }
+    let bad = "HOLEID,AT,AZ,INC\nDH1,0,10,200\n";
+    inc_input.surveys_csv = Some(InputFile::new("inc.csv", bad));
+    let e = inc_input.load().unwrap_err().to_string();
+    assert!(
+        e.contains("inc.csv, line 2, column 'INC'") && e.contains("0..180"),
+        "{e}"
+    );
+}

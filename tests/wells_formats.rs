@@ -248,14 +248,15 @@ fn the_synthetic_copper_wells_are_thirteen_wells_of_nine_to_43_zero_one_samples(
 }
 
 #[test]
-fn the_synthetic_grade_wells_are_42_wells_at_utm_coordinates() {
+fn the_synthetic_grade_wells_are_247_wells_at_utm_coordinates() {
     let set = Input {
         samples_csv: Some(sample_file("copper_grade.csv")),
         ..Input::default()
     }
     .load()
     .unwrap();
-    assert_eq!(set.wells.len(), 42);
+    assert_eq!(set.wells.len(), 247);
+    assert_eq!(set.points.len(), 10012);
     assert!(set.origin.x > 5e5 && set.origin.y > 7e6);
     let [lo, hi] = set.summary().value_range.unwrap();
     assert_eq!(lo, 0.0);

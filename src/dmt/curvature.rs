@@ -103,7 +103,8 @@ pub fn norm_curvature(x: DVec3, ring: &[(DVec3, DVec3)]) -> f64 {
     }
     let k = 3.0 * (2.0 * PI - angle_sum) / area;
     let h = 0.75 * mean / area;
-    4.0 * h * h - 2.0 * k
+    // k1^2 + k2^2 is at least 2H^2 and 2|K|; the discrete estimates can break that.
+    (4.0 * h * h - 2.0 * k).max(2.0 * h * h).max(2.0 * k.abs())
 }
 
 /// Barycentric weights `(a, b, c, d) / lattice` with every weight positive.

@@ -207,7 +207,8 @@ struct Collar {
     length: Option<f64>,
 }
 
-/// A survey row before the dip convention is applied.
+/// A survey row before the dip convention is applied (an inclination column is stored as
+/// the equivalent negative-down dip, `inclination - 90`).
 #[derive(Debug, Clone, Copy)]
 struct RawStation {
     line: u64,
@@ -292,15 +293,26 @@ fn read_collars(
     Ok((collars, index))
 }
 
+/// Survey stations per collar, and whether they came from an inclination column (degrees
+/// from vertical, 0 = down: no sign convention to guess) rather than a dip column.
 fn read_surveys(
     table: &Table,
     index: &HashMap<String, usize>,
     report: &mut ReadReport,
-) -> Result<Vec<Vec<RawStation>>, WellsError> {
+) -> Result<(Vec<Vec<RawStation>>, bool), WellsError> {
     let hole = table.require("hole id", aliases::HOLE, &[])?;
     let depth = table.require("survey depth", aliases::SURVEY_DEPTH, &[])?;
     let azimuth = table.require("azimuth", aliases::AZIMUTH, &[])?;
-    let dip = table.require("dip", aliases::DIP, &[])?;
+    let (dip, inclination) = match table.find(aliases::DIP, &[]) {
+        Some(c) => (c, false),
+        None => match table.find(aliases::INCLINATION, &[]) {
+            Some(c) => (c, true),
+            None => (
+                table.require("dip (or inclination)", aliases::DIP, &[])?,
+                false,
+            ),
+        },
+    };
     let mut out = vec![Vec::new(); index.len()];
     let (mut orphans, mut empty) = (0usize, Vec::new());
     for row in &table.rows {
@@ -316,12 +328,18 @@ fn read_surveys(
             empty.push(format!("line {}", row.line));
             continue;
         };
-        if p.abs() > 90.0 {
+        let (valid, p) = if inclination {
+            ((0.0..=180.0).contains(&p), p - 90.0)
+        } else {
+            (p.abs() <= 90.0, p)
+        };
+        if !valid {
+            let range = if inclination { "0..180" } else { "-90..90" };
             return Err(WellsError::BadField {
                 file: table.file.clone(),
                 line: row.line,
                 column: table.headers[dip].clone(),
-                message: format!("dip {p} is outside -90..90 degrees"),
+                message: format!("'{}' is outside {range} degrees", row.get(dip)),
             });
         }
         out[h].push(RawStation {
@@ -346,7 +364,7 @@ fn read_surveys(
             examples(&empty)
         ));
     }
-    Ok(out)
+    Ok((out, inclination))
 }
 
 /// Decides the dip convention: the given one, or the sign most non-zero dips carry.
@@ -523,7 +541,7 @@ pub(crate) fn read_tables(input: &Input, _unit: Unit) -> Result<Holes, WellsErro
     }
 
     // Surveys and the dip convention.
-    let raw = match &input.surveys_csv {
+    let (raw, inclination) = match &input.surveys_csv {
         Some(file) => {
             let survey_table = Table::parse(&file.name, &file.bytes)?;
             read_surveys(&survey_table, &index, &mut report)?
@@ -532,7 +550,7 @@ pub(crate) fn read_tables(input: &Input, _unit: Unit) -> Result<Holes, WellsErro
             report.warnings.push(
                 "no survey table: every hole is taken as vertical from its collar".to_owned(),
             );
-            vec![Vec::new(); collars.len()]
+            (vec![Vec::new(); collars.len()], false)
         }
     };
     let survey_name = input
@@ -540,7 +558,10 @@ pub(crate) fn read_tables(input: &Input, _unit: Unit) -> Result<Holes, WellsErro
         .as_ref()
         .map(|f| f.name.as_str())
         .unwrap_or("surveys");
-    let negative_down = if input.surveys_csv.is_some() {
+    let negative_down = if inclination {
+        report.dip_convention = Some("inclination (0 = down)".to_owned());
+        true
+    } else if input.surveys_csv.is_some() {
         dip_convention(survey_name, &raw, input.dip_down_negative, &mut report)
     } else {
         input.dip_down_negative.unwrap_or(true)

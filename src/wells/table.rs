@@ -246,7 +246,9 @@ pub(crate) mod aliases {
         "surveyat",
     ];
     pub const AZIMUTH: &[&str] = &["azimuth", "az", "azi", "brg", "bearing", "azim"];
-    pub const DIP: &[&str] = &["dip", "inclination_dip", "surveydip"];
+    pub const DIP: &[&str] = &["dip", "surveydip"];
+    /// Degrees from vertical (0 = straight down), used when there is no dip column.
+    pub const INCLINATION: &[&str] = &["inclination", "inc", "incl", "incli"];
     pub const FROM: &[&str] = &[
         "from",
         "depthfrom",
