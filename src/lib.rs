@@ -14,10 +14,12 @@
 //! HTTP, async runtimes or databases.
 #![forbid(unsafe_code)]
 
+pub mod api;
 pub mod contour;
 pub mod dmt;
 pub mod export;
 pub mod grid;
+pub mod jobs;
 pub mod progress;
 pub mod tet;
 pub mod wells;

@@ -22,6 +22,12 @@ enum Command {
     Contour(Box<cli::contour::Args>),
     /// Delaunay-tetrahedralize a point file and print `points N tets T seconds S`.
     Tetrahedralize(cli::tetrahedralize::Args),
+    /// Serve OGC API - Processes with embedded workers (SQLite in --data-dir by default).
+    Serve(cli::serve::Args),
+    /// Run workers only, against a shared job database.
+    Worker(cli::worker::Args),
+    /// Print the service's OpenAPI document.
+    Openapi(cli::openapi::Args),
     /// Report what was read from the inputs: holes, samples, ranges, what was dropped and why.
     Inspect(Box<cli::inspect::Args>),
 }
@@ -31,6 +37,9 @@ fn main() -> ExitCode {
     let outcome = match cli.command {
         Command::Contour(args) => cli::contour::run(*args),
         Command::Tetrahedralize(args) => cli::tetrahedralize::run(args),
+        Command::Serve(args) => cli::serve::run(args),
+        Command::Worker(args) => cli::worker::run(args),
+        Command::Openapi(args) => cli::openapi::run(args),
         Command::Inspect(args) => cli::inspect::run(*args),
     };
     match outcome {

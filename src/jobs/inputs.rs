@@ -1,0 +1,396 @@
+//! The execute inputs of the `dmt-contour` process, checked at the door.
+//!
+//! Invariant: a [`ProcessInputs`] that passed [`ProcessInputs::validate`] names exactly
+//! one kind of well source, at least one finite threshold, a known method and unknown
+//! mode, and a positive finite anisotropy; errors name the input field at fault.
+
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use crate::contour::{Anisotropy, ContourRequest, UnknownMode};
+use crate::dmt::Method;
+use crate::wells::{Input, InputFile, SampleSet};
+
+/// Inputs of `POST /processes/dmt-contour/execution` (the `inputs` object).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ProcessInputs {
+    /// Wells JSON: `{"crs"?, "wells": [{"id", "x", "y", "z"?, "samples": [{"depth" | "z", "value"}]}]}`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<Object>)]
+    pub wells: Option<serde_json::Value>,
+    /// Samples CSV text, columns `well,x,y,z,value`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples_csv: Option<String>,
+    /// Drill-hole collar table as CSV text (`hole_id,x,y,z`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub collars_csv: Option<String>,
+    /// Drill-hole survey table as CSV text (`hole_id,depth,azimuth,dip`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub surveys_csv: Option<String>,
+    /// Drill-hole interval table as CSV text (`hole_id,from,to,<variables...>`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub intervals_csv: Option<String>,
+    /// Interval column holding the value to contour.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub variable: Option<String>,
+    /// Categorical codes of `variable` that count as inside (value 1).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub inside: Vec<String>,
+    /// Composite length for interval tables, in input units.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub composite_length: Option<f64>,
+    /// CRS to report when the input carries none (e.g. `EPSG:32633`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crs: Option<String>,
+    /// Horizontal length unit, `m` or `ft`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unit: Option<String>,
+    /// One shell per threshold; a sample is inside when `value >= threshold`.
+    pub thresholds: Thresholds,
+    /// Vertex placement: `curvature`, `ibc`, `coi`, `midpoint` or `mt`. Default: curvature
+    /// for 0/1 data, IbC for grades.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub method: Option<String>,
+    /// "Don't know" samples: `drop` (default) or `bounds`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unknown: Option<String>,
+    /// Per-axis scale `[sx, sy, sz]` applied before tetrahedralizing.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(min_items = 3, max_items = 3)]
+    pub anisotropy: Option<[f64; 3]>,
+    /// Bodies with a smaller volume (input units cubed) are left out.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_volume: Option<f64>,
+}
+
+/// One threshold or several.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(untagged)]
+pub enum Thresholds {
+    One(f64),
+    Many(Vec<f64>),
+}
+
+impl Default for Thresholds {
+    fn default() -> Self {
+        Thresholds::Many(Vec::new())
+    }
+}
+
+impl Thresholds {
+    pub fn values(&self) -> Vec<f64> {
+        match self {
+            Thresholds::One(t) => vec![*t],
+            Thresholds::Many(ts) => ts.clone(),
+        }
+    }
+}
+
+/// An input the service refuses, naming the field.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{field}: {reason}")]
+pub struct InputError {
+    pub field: String,
+    pub reason: String,
+}
+
+impl InputError {
+    pub fn new(field: &str, reason: impl Into<String>) -> Self {
+        InputError {
+            field: field.to_string(),
+            reason: reason.into(),
+        }
+    }
+}
+
+impl ProcessInputs {
+    /// Checks everything that can be checked without reading the wells, and counts the
+    /// sample rows per source against `max_points`.
+    pub fn validate(&self, max_points: usize) -> Result<(), InputError> {
+        let has_tables = self.collars_csv.is_some()
+            || self.surveys_csv.is_some()
+            || self.intervals_csv.is_some();
+        let sources = [self.wells.is_some(), self.samples_csv.is_some(), has_tables]
+            .into_iter()
+            .filter(|&given| given)
+            .count();
+        if sources == 0 {
+            return Err(InputError::new(
+                "inputs",
+                "give one source of wells: wells, samples_csv, or collars_csv + intervals_csv",
+            ));
+        }
+        if sources > 1 {
+            return Err(InputError::new(
+                "inputs",
+                "give only one source of wells: wells, samples_csv, or the drill-hole tables",
+            ));
+        }
+        if has_tables {
+            if self.collars_csv.is_none() {
+                return Err(InputError::new(
+                    "collars_csv",
+                    "the drill-hole tables need a collar table",
+                ));
+            }
+            if self.intervals_csv.is_none() {
+                return Err(InputError::new(
+                    "intervals_csv",
+                    "the drill-hole tables need an interval table",
+                ));
+            }
+        }
+        let thresholds = self.thresholds.values();
+        if thresholds.is_empty() {
+            return Err(InputError::new("thresholds", "give at least one threshold"));
+        }
+        if thresholds.len() > 64 {
+            return Err(InputError::new("thresholds", "at most 64 thresholds"));
+        }
+        if let Some(bad) = thresholds.iter().find(|t| !t.is_finite()) {
+            return Err(InputError::new(
+                "thresholds",
+                format!("{bad} is not a finite number"),
+            ));
+        }
+        self.method()?;
+        self.unknown_mode()?;
+        if let Some(scale) = self.anisotropy
+            && scale.iter().any(|s| !s.is_finite() || *s <= 0.0)
+        {
+            return Err(InputError::new(
+                "anisotropy",
+                "each of [sx, sy, sz] must be a positive finite number",
+            ));
+        }
+        if let Some(v) = self.min_volume
+            && (!v.is_finite() || v < 0.0)
+        {
+            return Err(InputError::new(
+                "min_volume",
+                "must be a finite number >= 0",
+            ));
+        }
+        if let Some(l) = self.composite_length
+            && (!l.is_finite() || l <= 0.0)
+        {
+            return Err(InputError::new(
+                "composite_length",
+                "must be a positive finite number",
+            ));
+        }
+        if let Some(unit) = &self.unit
+            && unit != "m"
+            && unit != "ft"
+        {
+            return Err(InputError::new("unit", "must be \"m\" or \"ft\""));
+        }
+        if let Some(wells) = &self.wells {
+            if !wells.is_object() {
+                return Err(InputError::new("wells", "must be a JSON object"));
+            }
+            let count = wells_sample_count(wells);
+            check_points("wells", count, max_points)?;
+        }
+        for (field, text) in [
+            ("samples_csv", &self.samples_csv),
+            ("intervals_csv", &self.intervals_csv),
+        ] {
+            if let Some(text) = text {
+                check_points(field, csv_data_rows(text), max_points)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of sample rows across the sources (the size used to pick sync or async).
+    pub fn point_count(&self) -> usize {
+        self.wells.as_ref().map_or(0, wells_sample_count)
+            + self.samples_csv.as_deref().map_or(0, csv_data_rows)
+            + self.intervals_csv.as_deref().map_or(0, csv_data_rows)
+    }
+
+    pub fn method(&self) -> Result<Option<Method>, InputError> {
+        self.method
+            .as_deref()
+            .map(|m| {
+                m.parse::<Method>()
+                    .map_err(|e| InputError::new("method", e))
+            })
+            .transpose()
+    }
+
+    pub fn unknown_mode(&self) -> Result<UnknownMode, InputError> {
+        match self
+            .unknown
+            .as_deref()
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            None | Some("drop") => Ok(UnknownMode::Drop),
+            Some("bounds") => Ok(UnknownMode::Bounds),
+            Some(other) => Err(InputError::new(
+                "unknown",
+                format!("unknown mode {other:?}: expected drop or bounds"),
+            )),
+        }
+    }
+
+    /// The well-reading half of the request, files named after their input fields.
+    pub fn wells_input(&self) -> Input {
+        let file = |name: &str, text: &Option<String>| {
+            text.as_ref().map(|t| InputFile {
+                name: name.to_string(),
+                bytes: t.as_bytes().to_vec(),
+            })
+        };
+        Input {
+            samples_csv: file("samples_csv", &self.samples_csv),
+            wells_json: self.wells.as_ref().map(|w| InputFile {
+                name: "wells".to_string(),
+                bytes: serde_json::to_vec(w).unwrap_or_default(),
+            }),
+            collars_csv: file("collars_csv", &self.collars_csv),
+            surveys_csv: file("surveys_csv", &self.surveys_csv),
+            intervals_csv: file("intervals_csv", &self.intervals_csv),
+            variable: self.variable.clone(),
+            inside_codes: self.inside.clone(),
+            composite_length: self.composite_length,
+            crs: self.crs.clone(),
+            unit: self.unit.clone(),
+            ..Input::default()
+        }
+    }
+
+    /// The contouring half of the request around already-read samples.
+    pub fn contour_request(&self, samples: SampleSet) -> Result<ContourRequest, InputError> {
+        Ok(ContourRequest {
+            samples,
+            thresholds: self.thresholds.values(),
+            method: self.method()?,
+            unknown: self.unknown_mode()?,
+            anisotropy: self
+                .anisotropy
+                .map(|scale| Anisotropy::scale(glam::DVec3::from_array(scale))),
+            grid: None,
+            min_volume: self.min_volume.unwrap_or(0.0),
+        })
+    }
+}
+
+fn check_points(field: &str, count: usize, max_points: usize) -> Result<(), InputError> {
+    if count > max_points {
+        return Err(InputError::new(
+            field,
+            format!("{count} samples exceed this server's limit of {max_points}"),
+        ));
+    }
+    Ok(())
+}
+
+/// Non-empty lines after the header.
+fn csv_data_rows(text: &str) -> usize {
+    text.lines()
+        .filter(|line| !line.trim().is_empty())
+        .count()
+        .saturating_sub(1)
+}
+
+fn wells_sample_count(wells: &serde_json::Value) -> usize {
+    wells
+        .get("wells")
+        .and_then(|w| w.as_array())
+        .map_or(0, |wells| {
+            wells
+                .iter()
+                .map(|well| {
+                    well.get("samples")
+                        .and_then(|s| s.as_array())
+                        .map_or(0, Vec::len)
+                })
+                .sum()
+        })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn samples(rows: usize) -> ProcessInputs {
+        let mut csv = String::from("well,x,y,z,value\n");
+        for i in 0..rows {
+            csv.push_str(&format!("w{i},0,0,{i},1\n"));
+        }
+        ProcessInputs {
+            samples_csv: Some(csv),
+            thresholds: Thresholds::One(0.5),
+            ..ProcessInputs::default()
+        }
+    }
+
+    #[test]
+    fn a_plain_samples_request_is_valid() {
+        assert_eq!(samples(3).validate(10), Ok(()));
+        assert_eq!(samples(3).point_count(), 3);
+    }
+
+    #[test]
+    fn too_many_samples_name_the_field() {
+        let err = samples(11).validate(10).unwrap_err();
+        assert_eq!(err.field, "samples_csv");
+        assert!(err.reason.contains("11"), "{}", err.reason);
+    }
+
+    #[test]
+    fn bad_thresholds_method_and_anisotropy_name_their_field() {
+        let mut inputs = samples(1);
+        inputs.thresholds = Thresholds::Many(vec![]);
+        assert_eq!(inputs.validate(10).unwrap_err().field, "thresholds");
+        inputs.thresholds = Thresholds::Many(vec![0.5, f64::NAN]);
+        assert_eq!(inputs.validate(10).unwrap_err().field, "thresholds");
+        inputs.thresholds = Thresholds::One(0.5);
+        inputs.method = Some("best".into());
+        assert_eq!(inputs.validate(10).unwrap_err().field, "method");
+        inputs.method = Some("IBC".into());
+        inputs.anisotropy = Some([1.0, 0.0, 1.0]);
+        assert_eq!(inputs.validate(10).unwrap_err().field, "anisotropy");
+        inputs.anisotropy = Some([1.0, 2.0, 1.0]);
+        inputs.unknown = Some("maybe".into());
+        assert_eq!(inputs.validate(10).unwrap_err().field, "unknown");
+    }
+
+    #[test]
+    fn no_source_or_two_sources_are_refused() {
+        let mut inputs = samples(1);
+        inputs.samples_csv = None;
+        assert_eq!(inputs.validate(10).unwrap_err().field, "inputs");
+        let mut inputs = samples(1);
+        inputs.wells = Some(serde_json::json!({"wells": []}));
+        assert_eq!(inputs.validate(10).unwrap_err().field, "inputs");
+    }
+
+    #[test]
+    fn drill_hole_tables_need_collars_and_intervals() {
+        let inputs = ProcessInputs {
+            intervals_csv: Some("hole_id,from,to,cu\n".into()),
+            thresholds: Thresholds::One(0.5),
+            ..ProcessInputs::default()
+        };
+        assert_eq!(inputs.validate(10).unwrap_err().field, "collars_csv");
+    }
+
+    #[test]
+    fn wells_json_samples_are_counted() {
+        let inputs = ProcessInputs {
+            wells: Some(serde_json::json!({"wells": [
+                {"id": "a", "x": 0, "y": 0, "samples": [{"depth": 1, "value": 1}, {"depth": 2, "value": 0}]},
+                {"id": "b", "x": 1, "y": 0, "samples": [{"depth": 1, "value": null}]}
+            ]})),
+            thresholds: Thresholds::One(0.5),
+            ..ProcessInputs::default()
+        };
+        assert_eq!(inputs.point_count(), 3);
+        assert_eq!(inputs.validate(2).unwrap_err().field, "wells");
+    }
+}

@@ -1,0 +1,289 @@
+//! The durable job queue: a [`JobStore`] trait with SQLite and PostgreSQL backends, the
+//! execute inputs of the `dmt-contour` process, and the workers that run jobs.
+//!
+//! Invariant: a job's state only moves `accepted -> running -> successful | failed |
+//! dismissed` (or back to `accepted` when a lease expires or a worker shuts down), and
+//! every write a worker makes is fenced by the job's `attempt`: a write that matches no
+//! row means the lease was lost, and the worker stops computing. Outputs are written in
+//! the same transaction that marks the job successful, so a job completes exactly once.
+
+mod inputs;
+mod pipeline;
+mod postgres;
+mod sqlite;
+mod worker;
+
+use std::sync::Arc;
+use std::time::{SystemTime, UNIX_EPOCH};
+
+use async_trait::async_trait;
+use serde::{Deserialize, Serialize};
+use uuid::Uuid;
+
+pub use inputs::{InputError, ProcessInputs, Thresholds};
+pub use pipeline::{ContourPipeline, JobFailure, Pipeline};
+pub use postgres::PostgresStore;
+pub use sqlite::SqliteStore;
+pub use worker::{JobMetrics, WorkerConfig, WorkerPool};
+
+/// Where a job is in its life (OGC API - Processes `statusCode`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum JobState {
+    Accepted,
+    Running,
+    Successful,
+    Failed,
+    Dismissed,
+}
+
+impl JobState {
+    pub const ALL: [JobState; 5] = [
+        JobState::Accepted,
+        JobState::Running,
+        JobState::Successful,
+        JobState::Failed,
+        JobState::Dismissed,
+    ];
+
+    /// The name stored in the database and written in statusInfo documents.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JobState::Accepted => "accepted",
+            JobState::Running => "running",
+            JobState::Successful => "successful",
+            JobState::Failed => "failed",
+            JobState::Dismissed => "dismissed",
+        }
+    }
+
+    pub fn parse(s: &str) -> Result<Self, JobStoreError> {
+        JobState::ALL
+            .into_iter()
+            .find(|state| state.as_str() == s)
+            .ok_or_else(|| JobStoreError::Corrupt(format!("unknown job state {s:?}")))
+    }
+
+    /// `true` for states a job never leaves on its own.
+    pub fn is_finished(self) -> bool {
+        matches!(
+            self,
+            JobState::Successful | JobState::Failed | JobState::Dismissed
+        )
+    }
+}
+
+/// Why a failed job failed, so the API can answer with the right status code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FailureKind {
+    /// The inputs could not be read or contoured (the user can fix them).
+    Input,
+    /// The job ran past the per-job time limit.
+    Timeout,
+    /// Workers holding the job died more often than the attempt limit allows.
+    LeaseExpired,
+    /// A bug: a panic or an error the user cannot fix.
+    Internal,
+}
+
+impl FailureKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            FailureKind::Input => "input",
+            FailureKind::Timeout => "timeout",
+            FailureKind::LeaseExpired => "lease_expired",
+            FailureKind::Internal => "internal",
+        }
+    }
+
+    pub fn parse(s: &str) -> Self {
+        match s {
+            "input" => FailureKind::Input,
+            "timeout" => FailureKind::Timeout,
+            "lease_expired" => FailureKind::LeaseExpired,
+            _ => FailureKind::Internal,
+        }
+    }
+}
+
+/// A job as stored. Times are milliseconds since the Unix epoch.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JobRecord {
+    pub id: Uuid,
+    pub state: JobState,
+    /// Human-readable stage ("tetrahedralize 40%") or the failure reason.
+    pub message: String,
+    /// 0..=100.
+    pub progress: u8,
+    /// Number of times a worker claimed the job; the fencing token of worker writes.
+    pub attempt: i64,
+    pub max_attempts: i64,
+    pub failure: Option<FailureKind>,
+    pub created_ms: i64,
+    pub started_ms: Option<i64>,
+    pub finished_ms: Option<i64>,
+    pub updated_ms: i64,
+}
+
+/// A job handed to a worker by [`JobStore::claim_next_job`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ClaimedJob {
+    pub lease: Lease,
+    /// The execute inputs as submitted (JSON).
+    pub inputs: Vec<u8>,
+}
+
+/// Proof of holding a job: every worker write names it and matches only while the
+/// job is still `running` with this `attempt`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Lease {
+    pub job_id: Uuid,
+    pub attempt: i64,
+}
+
+/// One output of a finished job, stored as a blob.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoredOutput {
+    /// `glb`, `summary`, `tileset`, `geojson`, `obj`, `vtu`.
+    pub id: String,
+    pub file_name: String,
+    pub media_type: String,
+    pub bytes: Vec<u8>,
+}
+
+/// An output without its bytes, for the results document.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutputInfo {
+    pub id: String,
+    pub file_name: String,
+    pub media_type: String,
+    pub size_bytes: i64,
+}
+
+/// What [`JobStore::request_dismissal`] found.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Dismissal {
+    /// The job is now (or already was) dismissed; its outputs are deleted.
+    Dismissed(JobRecord),
+    NotFound,
+}
+
+/// A job's figure in the store, grouped by state.
+pub type StateCounts = Vec<(JobState, i64)>;
+
+/// Why the store could not answer.
+#[derive(Debug, thiserror::Error)]
+pub enum JobStoreError {
+    #[error("the queue holds {queued} jobs, its limit")]
+    QueueFull { queued: i64 },
+    #[error("database error: {0}")]
+    Database(#[from] sqlx::Error),
+    #[error("stored job is corrupt: {0}")]
+    Corrupt(String),
+    #[error("unsupported database URL {0:?}: expected sqlite:// or postgres://")]
+    UnsupportedUrl(String),
+}
+
+/// The durable queue and result store shared by API nodes and workers.
+///
+/// Every method is one short transaction. `now_ms` is passed in (rather than read from
+/// the clock) so tests can move time; production callers pass [`now_ms`].
+#[async_trait]
+pub trait JobStore: Send + Sync + 'static {
+    /// Queues a job unless `max_queued` jobs are already waiting.
+    async fn submit(
+        &self,
+        inputs: &[u8],
+        max_attempts: i64,
+        max_queued: Option<i64>,
+        now_ms: i64,
+    ) -> Result<JobRecord, JobStoreError>;
+
+    async fn get(&self, id: Uuid) -> Result<Option<JobRecord>, JobStoreError>;
+
+    /// The newest `limit` jobs, newest first.
+    async fn list(&self, limit: i64) -> Result<Vec<JobRecord>, JobStoreError>;
+
+    /// Re-queues jobs whose lease expired (or fails them once they reach the attempt
+    /// limit), then claims the oldest accepted job for `worker`, holding it until
+    /// `now_ms + lease_ms`.
+    async fn claim_next_job(
+        &self,
+        worker: &str,
+        now_ms: i64,
+        lease_ms: i64,
+    ) -> Result<Option<ClaimedJob>, JobStoreError>;
+
+    /// Extends the lease and records progress. `Ok(false)`: the lease is lost (the job
+    /// was dismissed, or re-queued and claimed by someone else); stop computing.
+    async fn record_heartbeat(
+        &self,
+        lease: Lease,
+        progress: u8,
+        message: &str,
+        now_ms: i64,
+        lease_ms: i64,
+    ) -> Result<bool, JobStoreError>;
+
+    /// Stores the outputs and marks the job successful, atomically. `Ok(false)`: the
+    /// lease was lost and nothing was written.
+    async fn mark_succeeded(
+        &self,
+        lease: Lease,
+        outputs: &[StoredOutput],
+        now_ms: i64,
+    ) -> Result<bool, JobStoreError>;
+
+    /// Marks the job failed with a message. `Ok(false)`: the lease was lost.
+    async fn mark_failed(
+        &self,
+        lease: Lease,
+        kind: FailureKind,
+        message: &str,
+        now_ms: i64,
+    ) -> Result<bool, JobStoreError>;
+
+    /// Puts a running job back in the queue without counting an attempt against it
+    /// (graceful shutdown). `Ok(false)`: the lease was lost.
+    async fn release(&self, lease: Lease, now_ms: i64) -> Result<bool, JobStoreError>;
+
+    /// Dismisses a job in any state: queued jobs never run, running jobs lose their
+    /// lease (their worker stops at its next heartbeat), finished jobs lose their outputs.
+    async fn request_dismissal(&self, id: Uuid, now_ms: i64) -> Result<Dismissal, JobStoreError>;
+
+    async fn inputs(&self, id: Uuid) -> Result<Option<Vec<u8>>, JobStoreError>;
+
+    async fn outputs(&self, id: Uuid) -> Result<Vec<OutputInfo>, JobStoreError>;
+
+    async fn output(
+        &self,
+        id: Uuid,
+        output_id: &str,
+    ) -> Result<Option<StoredOutput>, JobStoreError>;
+
+    /// Number of jobs in each state (states without jobs are left out).
+    async fn count_by_state(&self) -> Result<StateCounts, JobStoreError>;
+
+    /// Answers when the database does.
+    async fn ping(&self) -> Result<(), JobStoreError>;
+}
+
+/// Milliseconds since the Unix epoch, the clock every store write uses.
+pub fn now_ms() -> i64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_millis() as i64)
+        .unwrap_or(0)
+}
+
+/// Opens the store a URL names: `sqlite://PATH` (created if missing) or
+/// `postgres://...`. The schema is created if it does not exist.
+pub async fn open_store(url: &str) -> Result<Arc<dyn JobStore>, JobStoreError> {
+    if url.starts_with("sqlite:") {
+        Ok(Arc::new(SqliteStore::connect(url).await?))
+    } else if url.starts_with("postgres://") || url.starts_with("postgresql://") {
+        Ok(Arc::new(PostgresStore::connect(url).await?))
+    } else {
+        Err(JobStoreError::UnsupportedUrl(url.to_string()))
+    }
+}

@@ -1,0 +1,415 @@
+//! The scale-out [`JobStore`]: PostgreSQL shared by any number of API and worker nodes.
+//!
+//! Invariant: a job is claimed by exactly one worker: the claim locks the oldest queued
+//! row with `FOR UPDATE SKIP LOCKED` and moves it to `running` in the same statement.
+
+use std::str::FromStr;
+use std::time::Duration;
+
+use async_trait::async_trait;
+use sqlx::Row;
+use sqlx::postgres::{PgConnectOptions, PgPool, PgPoolOptions, PgRow};
+use uuid::Uuid;
+
+use super::{
+    ClaimedJob, Dismissal, FailureKind, JobRecord, JobState, JobStore, JobStoreError, Lease,
+    OutputInfo, StateCounts, StoredOutput,
+};
+
+const SCHEMA: &[&str] = &[
+    "CREATE TABLE IF NOT EXISTS jobs (
+        id TEXT PRIMARY KEY,
+        state TEXT NOT NULL,
+        message TEXT NOT NULL DEFAULT '',
+        progress BIGINT NOT NULL DEFAULT 0,
+        inputs BYTEA NOT NULL,
+        attempt BIGINT NOT NULL DEFAULT 0,
+        released BIGINT NOT NULL DEFAULT 0,
+        max_attempts BIGINT NOT NULL,
+        failure TEXT,
+        lease_owner TEXT,
+        lease_expires_ms BIGINT,
+        created_ms BIGINT NOT NULL,
+        started_ms BIGINT,
+        finished_ms BIGINT,
+        updated_ms BIGINT NOT NULL
+    )",
+    "CREATE INDEX IF NOT EXISTS jobs_by_state ON jobs (state, created_ms)",
+    "CREATE TABLE IF NOT EXISTS job_outputs (
+        job_id TEXT NOT NULL REFERENCES jobs (id) ON DELETE CASCADE,
+        output_id TEXT NOT NULL,
+        file_name TEXT NOT NULL,
+        media_type TEXT NOT NULL,
+        bytes BYTEA NOT NULL,
+        PRIMARY KEY (job_id, output_id)
+    )",
+];
+
+const JOB_COLUMNS: &str = "id, state, message, progress, attempt, max_attempts, failure, \
+     created_ms, started_ms, finished_ms, updated_ms";
+
+/// PostgreSQL-backed [`JobStore`].
+#[derive(Debug, Clone)]
+pub struct PostgresStore {
+    pool: PgPool,
+}
+
+impl PostgresStore {
+    /// Connects to the database a `postgres://` URL names and creates the schema.
+    pub async fn connect(url: &str) -> Result<Self, JobStoreError> {
+        Self::connect_with(PgConnectOptions::from_str(url)?).await
+    }
+
+    /// Connects with the tables in `schema` (created if missing): one database can hold
+    /// independent queues, which is how the test suite isolates its tests.
+    pub async fn connect_in_schema(url: &str, schema: &str) -> Result<Self, JobStoreError> {
+        let admin = PgPoolOptions::new()
+            .max_connections(1)
+            .connect_with(PgConnectOptions::from_str(url)?)
+            .await?;
+        let quoted = format!("\"{}\"", schema.replace('"', "\"\""));
+        sqlx::query(&format!("CREATE SCHEMA IF NOT EXISTS {quoted}"))
+            .execute(&admin)
+            .await?;
+        admin.close().await;
+        let options = PgConnectOptions::from_str(url)?.options([("search_path", schema)]);
+        Self::connect_with(options).await
+    }
+
+    async fn connect_with(options: PgConnectOptions) -> Result<Self, JobStoreError> {
+        let pool = PgPoolOptions::new()
+            .max_connections(8)
+            .acquire_timeout(Duration::from_secs(10))
+            .connect_with(options)
+            .await?;
+        // Several nodes may start at once: create the schema under an advisory lock.
+        let mut tx = pool.begin().await?;
+        sqlx::query("SELECT pg_advisory_xact_lock(7236001)")
+            .execute(&mut *tx)
+            .await?;
+        for statement in SCHEMA {
+            sqlx::query(statement).execute(&mut *tx).await?;
+        }
+        tx.commit().await?;
+        Ok(PostgresStore { pool })
+    }
+}
+
+fn record(row: &PgRow) -> Result<JobRecord, JobStoreError> {
+    let id: String = row.try_get("id")?;
+    Ok(JobRecord {
+        id: Uuid::parse_str(&id)
+            .map_err(|e| JobStoreError::Corrupt(format!("job id {id:?}: {e}")))?,
+        state: JobState::parse(&row.try_get::<String, _>("state")?)?,
+        message: row.try_get("message")?,
+        progress: row.try_get::<i64, _>("progress")?.clamp(0, 100) as u8,
+        attempt: row.try_get("attempt")?,
+        max_attempts: row.try_get("max_attempts")?,
+        failure: row
+            .try_get::<Option<String>, _>("failure")?
+            .map(|f| FailureKind::parse(&f)),
+        created_ms: row.try_get("created_ms")?,
+        started_ms: row.try_get("started_ms")?,
+        finished_ms: row.try_get("finished_ms")?,
+        updated_ms: row.try_get("updated_ms")?,
+    })
+}
+
+#[async_trait]
+impl JobStore for PostgresStore {
+    async fn submit(
+        &self,
+        inputs: &[u8],
+        max_attempts: i64,
+        max_queued: Option<i64>,
+        now_ms: i64,
+    ) -> Result<JobRecord, JobStoreError> {
+        let id = Uuid::new_v4();
+        let inserted = sqlx::query(
+            "INSERT INTO jobs (id, state, message, inputs, max_attempts, created_ms, updated_ms)
+             SELECT $1, 'accepted', 'queued', $2, $3, $4, $4
+             WHERE $5 IS NULL OR (SELECT count(*) FROM jobs WHERE state = 'accepted') < $5",
+        )
+        .bind(id.to_string())
+        .bind(inputs)
+        .bind(max_attempts)
+        .bind(now_ms)
+        .bind(max_queued)
+        .execute(&self.pool)
+        .await?;
+        if inserted.rows_affected() == 0 {
+            let queued: i64 =
+                sqlx::query_scalar("SELECT count(*) FROM jobs WHERE state = 'accepted'")
+                    .fetch_one(&self.pool)
+                    .await?;
+            return Err(JobStoreError::QueueFull { queued });
+        }
+        self.get(id)
+            .await?
+            .ok_or_else(|| JobStoreError::Corrupt(format!("job {id} vanished after insert")))
+    }
+
+    async fn get(&self, id: Uuid) -> Result<Option<JobRecord>, JobStoreError> {
+        let row = sqlx::query(&format!("SELECT {JOB_COLUMNS} FROM jobs WHERE id = $1"))
+            .bind(id.to_string())
+            .fetch_optional(&self.pool)
+            .await?;
+        row.as_ref().map(record).transpose()
+    }
+
+    async fn list(&self, limit: i64) -> Result<Vec<JobRecord>, JobStoreError> {
+        let rows = sqlx::query(&format!(
+            "SELECT {JOB_COLUMNS} FROM jobs ORDER BY created_ms DESC, id LIMIT $1"
+        ))
+        .bind(limit)
+        .fetch_all(&self.pool)
+        .await?;
+        rows.iter().map(record).collect()
+    }
+
+    async fn claim_next_job(
+        &self,
+        worker: &str,
+        now_ms: i64,
+        lease_ms: i64,
+    ) -> Result<Option<ClaimedJob>, JobStoreError> {
+        sqlx::query(
+            "UPDATE jobs SET
+                state = CASE WHEN attempt - released >= max_attempts THEN 'failed' ELSE 'accepted' END,
+                failure = CASE WHEN attempt - released >= max_attempts THEN 'lease_expired' ELSE failure END,
+                message = CASE WHEN attempt - released >= max_attempts
+                    THEN 'the workers running this job stopped answering ' || (attempt - released)::TEXT || ' times'
+                    ELSE 're-queued: the worker running it stopped answering' END,
+                finished_ms = CASE WHEN attempt - released >= max_attempts THEN $1 ELSE NULL END,
+                lease_owner = NULL, lease_expires_ms = NULL, updated_ms = $1
+             WHERE state = 'running' AND lease_expires_ms < $1",
+        )
+        .bind(now_ms)
+        .execute(&self.pool)
+        .await?;
+        let row = sqlx::query(
+            "UPDATE jobs SET state = 'running', attempt = attempt + 1, lease_owner = $1,
+                lease_expires_ms = $2, started_ms = coalesce(started_ms, $3), updated_ms = $3,
+                progress = 0, message = 'started'
+             WHERE id = (SELECT id FROM jobs WHERE state = 'accepted'
+                         ORDER BY created_ms, id LIMIT 1 FOR UPDATE SKIP LOCKED)
+             RETURNING id, attempt, inputs",
+        )
+        .bind(worker)
+        .bind(now_ms + lease_ms)
+        .bind(now_ms)
+        .fetch_optional(&self.pool)
+        .await?;
+        let Some(row) = row else { return Ok(None) };
+        let id: String = row.try_get("id")?;
+        Ok(Some(ClaimedJob {
+            lease: Lease {
+                job_id: Uuid::parse_str(&id)
+                    .map_err(|e| JobStoreError::Corrupt(format!("job id {id:?}: {e}")))?,
+                attempt: row.try_get("attempt")?,
+            },
+            inputs: row.try_get("inputs")?,
+        }))
+    }
+
+    async fn record_heartbeat(
+        &self,
+        lease: Lease,
+        progress: u8,
+        message: &str,
+        now_ms: i64,
+        lease_ms: i64,
+    ) -> Result<bool, JobStoreError> {
+        let done = sqlx::query(
+            "UPDATE jobs SET lease_expires_ms = $1, progress = $2, message = $3, updated_ms = $4
+             WHERE id = $5 AND attempt = $6 AND state = 'running'",
+        )
+        .bind(now_ms + lease_ms)
+        .bind(i64::from(progress.min(100)))
+        .bind(message)
+        .bind(now_ms)
+        .bind(lease.job_id.to_string())
+        .bind(lease.attempt)
+        .execute(&self.pool)
+        .await?;
+        Ok(done.rows_affected() == 1)
+    }
+
+    async fn mark_succeeded(
+        &self,
+        lease: Lease,
+        outputs: &[StoredOutput],
+        now_ms: i64,
+    ) -> Result<bool, JobStoreError> {
+        let mut tx = self.pool.begin().await?;
+        let done = sqlx::query(
+            "UPDATE jobs SET state = 'successful', progress = 100, message = 'done',
+                finished_ms = $1, updated_ms = $1, lease_owner = NULL, lease_expires_ms = NULL
+             WHERE id = $2 AND attempt = $3 AND state = 'running'",
+        )
+        .bind(now_ms)
+        .bind(lease.job_id.to_string())
+        .bind(lease.attempt)
+        .execute(&mut *tx)
+        .await?;
+        if done.rows_affected() != 1 {
+            tx.rollback().await?;
+            return Ok(false);
+        }
+        sqlx::query("DELETE FROM job_outputs WHERE job_id = $1")
+            .bind(lease.job_id.to_string())
+            .execute(&mut *tx)
+            .await?;
+        for output in outputs {
+            sqlx::query(
+                "INSERT INTO job_outputs (job_id, output_id, file_name, media_type, bytes)
+                 VALUES ($1, $2, $3, $4, $5)",
+            )
+            .bind(lease.job_id.to_string())
+            .bind(&output.id)
+            .bind(&output.file_name)
+            .bind(&output.media_type)
+            .bind(&output.bytes)
+            .execute(&mut *tx)
+            .await?;
+        }
+        tx.commit().await?;
+        Ok(true)
+    }
+
+    async fn mark_failed(
+        &self,
+        lease: Lease,
+        kind: FailureKind,
+        message: &str,
+        now_ms: i64,
+    ) -> Result<bool, JobStoreError> {
+        let done = sqlx::query(
+            "UPDATE jobs SET state = 'failed', failure = $1, message = $2, finished_ms = $3,
+                updated_ms = $3, lease_owner = NULL, lease_expires_ms = NULL
+             WHERE id = $4 AND attempt = $5 AND state = 'running'",
+        )
+        .bind(kind.as_str())
+        .bind(message)
+        .bind(now_ms)
+        .bind(lease.job_id.to_string())
+        .bind(lease.attempt)
+        .execute(&self.pool)
+        .await?;
+        Ok(done.rows_affected() == 1)
+    }
+
+    async fn release(&self, lease: Lease, now_ms: i64) -> Result<bool, JobStoreError> {
+        let done = sqlx::query(
+            "UPDATE jobs SET state = 'accepted', released = released + 1, progress = 0,
+                message = 're-queued: the worker running it shut down', updated_ms = $1,
+                lease_owner = NULL, lease_expires_ms = NULL
+             WHERE id = $2 AND attempt = $3 AND state = 'running'",
+        )
+        .bind(now_ms)
+        .bind(lease.job_id.to_string())
+        .bind(lease.attempt)
+        .execute(&self.pool)
+        .await?;
+        Ok(done.rows_affected() == 1)
+    }
+
+    async fn request_dismissal(&self, id: Uuid, now_ms: i64) -> Result<Dismissal, JobStoreError> {
+        let mut tx = self.pool.begin().await?;
+        let done = sqlx::query(
+            "UPDATE jobs SET state = 'dismissed', message = 'dismissed',
+                finished_ms = coalesce(finished_ms, $1), updated_ms = $1,
+                lease_owner = NULL, lease_expires_ms = NULL
+             WHERE id = $2",
+        )
+        .bind(now_ms)
+        .bind(id.to_string())
+        .execute(&mut *tx)
+        .await?;
+        if done.rows_affected() == 0 {
+            tx.rollback().await?;
+            return Ok(Dismissal::NotFound);
+        }
+        sqlx::query("DELETE FROM job_outputs WHERE job_id = $1")
+            .bind(id.to_string())
+            .execute(&mut *tx)
+            .await?;
+        let row = sqlx::query(&format!("SELECT {JOB_COLUMNS} FROM jobs WHERE id = $1"))
+            .bind(id.to_string())
+            .fetch_one(&mut *tx)
+            .await?;
+        let job = record(&row)?;
+        tx.commit().await?;
+        Ok(Dismissal::Dismissed(job))
+    }
+
+    async fn inputs(&self, id: Uuid) -> Result<Option<Vec<u8>>, JobStoreError> {
+        Ok(sqlx::query_scalar("SELECT inputs FROM jobs WHERE id = $1")
+            .bind(id.to_string())
+            .fetch_optional(&self.pool)
+            .await?)
+    }
+
+    async fn outputs(&self, id: Uuid) -> Result<Vec<OutputInfo>, JobStoreError> {
+        let rows = sqlx::query(
+            "SELECT output_id, file_name, media_type, octet_length(bytes)::BIGINT AS size_bytes
+             FROM job_outputs WHERE job_id = $1 ORDER BY output_id",
+        )
+        .bind(id.to_string())
+        .fetch_all(&self.pool)
+        .await?;
+        rows.iter()
+            .map(|row| {
+                Ok(OutputInfo {
+                    id: row.try_get("output_id")?,
+                    file_name: row.try_get("file_name")?,
+                    media_type: row.try_get("media_type")?,
+                    size_bytes: row.try_get("size_bytes")?,
+                })
+            })
+            .collect()
+    }
+
+    async fn output(
+        &self,
+        id: Uuid,
+        output_id: &str,
+    ) -> Result<Option<StoredOutput>, JobStoreError> {
+        let row = sqlx::query(
+            "SELECT output_id, file_name, media_type, bytes FROM job_outputs
+             WHERE job_id = $1 AND output_id = $2",
+        )
+        .bind(id.to_string())
+        .bind(output_id)
+        .fetch_optional(&self.pool)
+        .await?;
+        row.map(|row| {
+            Ok(StoredOutput {
+                id: row.try_get("output_id")?,
+                file_name: row.try_get("file_name")?,
+                media_type: row.try_get("media_type")?,
+                bytes: row.try_get("bytes")?,
+            })
+        })
+        .transpose()
+    }
+
+    async fn count_by_state(&self) -> Result<StateCounts, JobStoreError> {
+        let rows = sqlx::query("SELECT state, count(*) AS n FROM jobs GROUP BY state")
+            .fetch_all(&self.pool)
+            .await?;
+        rows.iter()
+            .map(|row| {
+                Ok((
+                    JobState::parse(&row.try_get::<String, _>("state")?)?,
+                    row.try_get("n")?,
+                ))
+            })
+            .collect()
+    }
+
+    async fn ping(&self) -> Result<(), JobStoreError> {
+        sqlx::query("SELECT 1").execute(&self.pool).await?;
+        Ok(())
+    }
+}
