@@ -31,7 +31,7 @@ pub struct ContourRequest {
     pub samples: SampleSet,
     /// One shell per threshold; a sample is inside when `value >= threshold`.
     pub thresholds: Vec<f64>,
-    /// `None` picks the default: curvature for 0/1 data, IbC for grades.
+    /// `None` picks the default: the midpoint rule for 0/1 data, IbC for grades.
     pub method: Option<Method>,
     pub unknown: UnknownMode,
     /// Scale (and rotation) applied before tetrahedralizing and inverted on output.

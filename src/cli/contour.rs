@@ -50,8 +50,8 @@ pub struct Args {
     )]
     pub thresholds: Vec<f64>,
 
-    /// Vertex placement: curvature (default for 0/1 data), ibc (default for grades), coi,
-    /// midpoint, or mt (marching tetrahedra, for comparison).
+    /// Vertex placement: midpoint (default for 0/1 data), ibc (default for grades), coi,
+    /// curvature, or mt (marching tetrahedra, for comparison).
     #[arg(short, long, value_name = "METHOD")]
     pub method: Option<String>,
 

@@ -48,7 +48,7 @@ pub struct ProcessInputs {
     pub unit: Option<String>,
     /// One shell per threshold; a sample is inside when `value >= threshold`.
     pub thresholds: Thresholds,
-    /// Vertex placement: `curvature`, `ibc`, `coi`, `midpoint` or `mt`. Default: curvature
+    /// Vertex placement: `curvature`, `ibc`, `coi`, `midpoint` or `mt`. Default: midpoint
     /// for 0/1 data, IbC for grades.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub method: Option<String>,
