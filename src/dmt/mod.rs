@@ -172,18 +172,7 @@ pub fn extract_shell(
     triangulation: Triangulation,
     progress: &dyn Progress,
 ) -> Result<Shell, DmtError> {
-    if values.len() != mesh.points.len() {
-        return Err(DmtError::ValueCount {
-            expected: mesh.points.len(),
-            got: values.len(),
-        });
-    }
-    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-        return Err(DmtError::NonFinite(i));
-    }
-    if !threshold.is_finite() {
-        return Err(DmtError::BadThreshold(threshold));
-    }
+    check_inputs(mesh, values, threshold)?;
     let stage = format!("contour {threshold}");
     progress.report(&stage, 0.0);
     let marked: Vec<bool> = values.par_iter().map(|&v| v >= threshold).collect();
@@ -241,6 +230,24 @@ pub fn extract_shell(
         },
         quality,
     })
+}
+
+/// The checks every extraction makes on its inputs: one finite value per mesh vertex and a
+/// finite threshold.
+pub fn check_inputs(mesh: &TetMesh, values: &[f64], threshold: f64) -> Result<(), DmtError> {
+    if values.len() != mesh.points.len() {
+        return Err(DmtError::ValueCount {
+            expected: mesh.points.len(),
+            got: values.len(),
+        });
+    }
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(DmtError::NonFinite(i));
+    }
+    if !threshold.is_finite() {
+        return Err(DmtError::BadThreshold(threshold));
+    }
+    Ok(())
 }
 
 /// Places every surface vertex: DMT vertices by the placement rule, hull vertices by the

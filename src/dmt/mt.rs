@@ -471,18 +471,7 @@ pub fn shell(
     threshold: f64,
     progress: &dyn Progress,
 ) -> Result<Shell, DmtError> {
-    if values.len() != mesh.points.len() {
-        return Err(DmtError::ValueCount {
-            expected: mesh.points.len(),
-            got: values.len(),
-        });
-    }
-    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-        return Err(DmtError::NonFinite(i));
-    }
-    if !threshold.is_finite() {
-        return Err(DmtError::BadThreshold(threshold));
-    }
+    super::check_inputs(mesh, values, threshold)?;
     let stage = format!("marching tetrahedra {threshold}");
     progress.report(&stage, 0.0);
     if progress.is_cancelled() {
