@@ -4,8 +4,6 @@
 //! Invariant: every measure is computed from exactly the triangles it is given, in the
 //! frame they are given in (local coordinates keep the sums accurate at UTM magnitudes).
 
-use std::collections::HashMap;
-
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -131,40 +129,6 @@ pub fn quality<'a>(meshes: impl IntoIterator<Item = (&'a [DVec3], &'a [[u32; 3]]
     q
 }
 
-/// Groups triangles into vertex-connected components. Returns, per component, the
-/// triangle indices, in first-seen order.
-pub fn components(vertex_count: usize, triangles: &[[u32; 3]]) -> Vec<Vec<u32>> {
-    let mut parent: Vec<u32> = (0..vertex_count as u32).collect();
-    fn find(parent: &mut [u32], mut x: u32) -> u32 {
-        while parent[x as usize] != x {
-            let up = parent[parent[x as usize] as usize];
-            parent[x as usize] = up;
-            x = up;
-        }
-        x
-    }
-    for t in triangles {
-        let r0 = find(&mut parent, t[0]);
-        for &v in &t[1..] {
-            let r = find(&mut parent, v);
-            if r != r0 {
-                parent[r as usize] = r0;
-            }
-        }
-    }
-    let mut index_of_root: HashMap<u32, usize> = HashMap::new();
-    let mut groups: Vec<Vec<u32>> = Vec::new();
-    for (i, t) in triangles.iter().enumerate() {
-        let r = find(&mut parent, t[0]);
-        let g = *index_of_root.entry(r).or_insert_with(|| {
-            groups.push(Vec::new());
-            groups.len() - 1
-        });
-        groups[g].push(i as u32);
-    }
-    groups
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -217,17 +181,5 @@ mod tests {
         for (p, q, r) in [(a, b, c), (b, c, a), (c, a, b), (a, c, b)] {
             assert!((min_angle_deg(p, q, r) - 30.0).abs() < 1e-9);
         }
-    }
-
-    #[test]
-    fn components_split_disjoint_meshes() {
-        let (mut p, mut t) = cube();
-        let (p2, t2) = cube();
-        let n = p.len() as u32;
-        p.extend(p2.iter().map(|&q| q + DVec3::X * 10.0));
-        t.extend(t2.iter().map(|tri| tri.map(|i| i + n)));
-        let c = components(p.len(), &t);
-        assert_eq!(c.len(), 2);
-        assert_eq!(c[0].len(), 12);
     }
 }
