@@ -412,6 +412,23 @@ pub fn process_description() -> ProcessDescription {
             json!({"type": "number", "minimum": 0}),
         ),
     );
+    for (name, title, what) in [
+        (
+            "well_traces",
+            "Drill-hole traces",
+            "the drill-hole traces (line primitives)",
+        ),
+        ("well_samples", "Samples", "the samples (point primitives)"),
+    ] {
+        inputs.insert(
+            name.to_string(),
+            input(
+                title,
+                &format!("Draw {what} in their own node of the GLB (default true)."),
+                json!({"type": "boolean", "default": true}),
+            ),
+        );
+    }
     inputs.insert(
         "crs".to_string(),
         input(

@@ -67,6 +67,10 @@ pub struct MultipartInputs {
     /// `sx,sy,sz` or a JSON array.
     anisotropy: Option<String>,
     min_volume: Option<f64>,
+    /// Draw the drill-hole traces in the GLB: true (default) or false.
+    well_traces: Option<bool>,
+    /// Draw the samples in the GLB: true (default) or false.
+    well_samples: Option<bool>,
     /// A JSON object of further inputs.
     inputs: Option<String>,
 }
@@ -376,6 +380,12 @@ async fn inputs_from_multipart(
             "min_volume" | "composite_length" => {
                 let value: f64 = text.trim().parse().map_err(|_| {
                     Problem::invalid_input(&name, format!("{:?} is not a number", text.trim()))
+                })?;
+                inputs.insert(name, Value::from(value));
+            }
+            "well_traces" | "well_samples" => {
+                let value: bool = text.trim().parse().map_err(|_| {
+                    Problem::invalid_input(&name, format!("{:?} is not true or false", text.trim()))
                 })?;
                 inputs.insert(name, Value::from(value));
             }

@@ -62,6 +62,12 @@ pub struct ProcessInputs {
     /// Bodies with a smaller volume (input units cubed) are left out.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub min_volume: Option<f64>,
+    /// Draw the drill-hole traces (line primitives) in the GLB; default true.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub well_traces: Option<bool>,
+    /// Draw the samples (point primitives) in the GLB; default true.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub well_samples: Option<bool>,
 }
 
 /// One threshold or several.

@@ -62,7 +62,13 @@ impl Pipeline for ContourPipeline {
             return Err(JobFailure::Cancelled);
         }
         progress.report("export", 0.0);
-        let outputs = export::all_outputs(&result, &OutputOptions::default())
+        let defaults = OutputOptions::default();
+        let options = OutputOptions {
+            well_traces: inputs.well_traces.unwrap_or(defaults.well_traces),
+            well_samples: inputs.well_samples.unwrap_or(defaults.well_samples),
+            ..defaults
+        };
+        let outputs = export::all_outputs(&result, &options)
             .map_err(|e| JobFailure::Internal(format!("exporting the results: {e}")))?;
         progress.report("export", 1.0);
         Ok(outputs
