@@ -205,12 +205,12 @@ pub fn is_binary(values: &[Option<f64>]) -> bool {
     any
 }
 
-/// The method used when the request names none: the midpoint rule for 0/1 data, IbC for
-/// grades. (The curvature placement, selectable, roughens surfaces on the long thin
-/// tetrahedra of drilling data: see docs/dmt.md for the measurements.)
+/// The method used when the request names none: the distance placement for 0/1 data, IbC
+/// for grades. (The paper's curvature placement, selectable, roughens surfaces on the long
+/// thin tetrahedra of drilling data: see docs/dmt.md for the measurements.)
 pub fn default_method(binary: bool) -> Method {
     if binary {
-        Method::Dmt(Placement::Midpoint)
+        Method::Dmt(Placement::Distance)
     } else {
         Method::Dmt(Placement::Ibc)
     }

@@ -157,24 +157,43 @@ fn an_ellipsoid_grade_body_from_utm_wells_is_one_closed_body_with_the_right_volu
 }
 
 #[test]
-fn binary_wells_give_a_closed_body_with_the_midpoint_rule_by_default() {
+fn binary_wells_give_a_smooth_closed_body_with_the_distance_placement_by_default() {
     let samples = wells(13, 30.0, 2.0, 0.0, -240.0, 11, |p| {
         Some(if ellipsoid_grade(p) >= 0.0 { 1.0 } else { 0.0 })
     });
-    let result = contour::run(&request(samples, vec![], None), &NoProgress).expect("contour");
-    assert_eq!(result.summary.method, "midpoint");
+    let result =
+        contour::run(&request(samples.clone(), vec![], None), &NoProgress).expect("contour");
+    assert_eq!(result.summary.method, "distance");
     assert!(result.summary.binary);
     let shell = &result.shells[0];
     assert_eq!(shell.threshold, 0.5);
     assert_eq!(shell.bodies.len(), 1);
     assert!(shell.bodies[0].closed);
     let exact_volume = 4.0 / 3.0 * std::f64::consts::PI * AXES.x * AXES.y * AXES.z;
+    let exact_area = ellipsoid_area(AXES.x, AXES.y, AXES.z);
     let dv = (shell.bodies[0].volume - exact_volume) / exact_volume;
-    eprintln!("binary volume error {dv:+.4}");
-    assert!(
-        dv.abs() < 0.15,
-        "binary data brackets the body only to the sample spacing: {dv}"
+    let da = (shell.bodies[0].area - exact_area) / exact_area;
+    // Marching tetrahedra on the same tetrahedra: a staircase between the samples.
+    let mt = contour::run(
+        &request(samples, vec![], Some(Method::MarchingTetrahedra)),
+        &NoProgress,
+    )
+    .expect("contour");
+    let mt_area = mt.shells[0].bodies.iter().map(|b| b.area).sum::<f64>() / exact_area - 1.0;
+    let (slivers, mt_slivers) = (
+        shell.quality.min_angle_under_10deg,
+        mt.shells[0].quality.min_angle_under_10deg,
     );
+    eprintln!(
+        "binary: volume error {dv:+.4}, area error {da:+.4} (MT {mt_area:+.4}), slivers {slivers:.3} (MT {mt_slivers:.3})"
+    );
+    assert!(dv.abs() < 0.06, "volume error {dv:+.4}");
+    assert!(
+        da.abs() < 0.05,
+        "area within 5% of the true surface: {da:+.4}"
+    );
+    assert!(mt_area > 0.15, "MT's staircase: {mt_area:+.4}");
+    assert!(slivers <= 0.5 * mt_slivers, "{slivers} vs MT {mt_slivers}");
 }
 
 #[test]
@@ -362,9 +381,11 @@ fn method_comparison() {
             Placement::Ibc,
             Placement::Coi,
             Placement::Midpoint,
+            Placement::Distance,
             Placement::Curvature { lattice: 7 },
         ] {
             for tri in [
+                Triangulation::MaxMinAngle,
                 Triangulation::Star,
                 Triangulation::EdgeCrossing,
                 Triangulation::Fan,

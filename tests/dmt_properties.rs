@@ -16,11 +16,12 @@ fn well_points(collars: &[(f64, f64)], step: f64, samples: usize) -> Vec<DVec3> 
         .collect()
 }
 
-fn placements() -> [Placement; 4] {
+fn placements() -> [Placement; 5] {
     [
         Placement::Ibc,
         Placement::Coi,
         Placement::Midpoint,
+        Placement::Distance,
         Placement::Curvature { lattice: 5 },
     ]
 }
@@ -54,8 +55,11 @@ proptest! {
             })
             .collect();
         let threshold = if binary { 0.5 } else { threshold * 0.5 };
-        for placement in placements() {
-            let shell = dmt::extract_shell(&mesh, &values, threshold, placement, Triangulation::Star, &NoProgress)
+        for (placement, triangulation) in placements()
+            .into_iter()
+            .flat_map(|p| [(p, Triangulation::MaxMinAngle), (p, Triangulation::Star)])
+        {
+            let shell = dmt::extract_shell(&mesh, &values, threshold, placement, triangulation, &NoProgress)
                 .expect("extraction");
             for body in &shell.bodies {
                 prop_assert!(body.closed, "{placement:?}: open body");

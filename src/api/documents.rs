@@ -384,8 +384,8 @@ pub fn process_description() -> ProcessDescription {
         "method".to_string(),
         input(
             "Vertex placement",
-            "curvature, ibc, coi, midpoint (Dual Marching Tetrahedra) or mt (marching tetrahedra). Default: midpoint for 0/1 data, ibc for grades.",
-            json!({"type": "string", "enum": ["curvature", "ibc", "coi", "midpoint", "mt"]}),
+            "distance, curvature, ibc, coi, midpoint (Dual Marching Tetrahedra) or mt (marching tetrahedra). Default: distance for 0/1 data, ibc for grades.",
+            json!({"type": "string", "enum": ["distance", "curvature", "ibc", "coi", "midpoint", "mt"]}),
         ),
     );
     inputs.insert(

@@ -50,8 +50,10 @@ pub struct Args {
     )]
     pub thresholds: Vec<f64>,
 
-    /// Vertex placement: midpoint (default for 0/1 data), ibc (default for grades), coi,
-    /// curvature, or mt (marching tetrahedra, for comparison).
+    /// Vertex placement: distance (default for 0/1 data: IbC on the signed distance to the
+    /// nearest sample of the other class), ibc (default for grades), coi, midpoint,
+    /// curvature (the paper's minimal discrete norm curvature), or mt (marching
+    /// tetrahedra, for comparison).
     #[arg(short, long, value_name = "METHOD")]
     pub method: Option<String>,
 

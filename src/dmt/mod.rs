@@ -7,6 +7,7 @@
 //! computed from exactly the triangles in `triangles`.
 
 pub mod curvature;
+pub mod distance;
 pub mod extract;
 pub mod measure;
 pub mod mt;
@@ -33,6 +34,9 @@ pub enum Placement {
     Coi,
     /// Mean of the midpoints of the tetrahedron's active edges.
     Midpoint,
+    /// IbC on the signed distance to the nearest sample of the other class (for 0/1 data,
+    /// where the values themselves carry no position between samples).
+    Distance,
 }
 
 /// The surface extraction method.
@@ -103,7 +107,7 @@ pub const DEFAULT_CURVATURE_LATTICE: u32 = 7;
 impl std::str::FromStr for Method {
     type Err = String;
 
-    /// Parses `curvature`, `ibc`, `coi`, `midpoint` or `mt` (case-insensitive).
+    /// Parses `distance`, `curvature`, `ibc`, `coi`, `midpoint` or `mt` (case-insensitive).
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s.to_ascii_lowercase().as_str() {
             "curvature" => Ok(Method::Dmt(Placement::Curvature {
@@ -112,9 +116,10 @@ impl std::str::FromStr for Method {
             "ibc" => Ok(Method::Dmt(Placement::Ibc)),
             "coi" => Ok(Method::Dmt(Placement::Coi)),
             "midpoint" => Ok(Method::Dmt(Placement::Midpoint)),
+            "distance" => Ok(Method::Dmt(Placement::Distance)),
             "mt" => Ok(Method::MarchingTetrahedra),
             other => Err(format!(
-                "unknown method {other:?}: expected curvature, ibc, coi, midpoint or mt"
+                "unknown method {other:?}: expected distance, curvature, ibc, coi, midpoint or mt"
             )),
         }
     }
@@ -128,6 +133,7 @@ impl Method {
             Method::Dmt(Placement::Ibc) => "ibc",
             Method::Dmt(Placement::Coi) => "coi",
             Method::Dmt(Placement::Midpoint) => "midpoint",
+            Method::Dmt(Placement::Distance) => "distance",
             Method::MarchingTetrahedra => "mt",
         }
     }
@@ -149,9 +155,13 @@ pub enum DmtError {
 /// How the (non-planar) dual polygons are cut into triangles.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Triangulation {
-    /// A star around the polygon's centroid (one added vertex per polygon of 4 or more
-    /// corners): fat triangles. The default, chosen by measurement (docs/dmt.md).
+    /// By diagonals (no added vertex), the triangulation whose smallest angle is largest
+    /// (dynamic programming per polygon). The default, chosen by measurement (docs/dmt.md):
+    /// fewest slivers.
     #[default]
+    MaxMinAngle,
+    /// A star around the polygon's centroid (one added vertex per polygon of 4 or more
+    /// corners).
     Star,
     /// A star around the crossing on the polygon's dual edge (the marching-tetrahedra
     /// vertex of that edge): slightly smaller volume error, more slivers.
@@ -183,12 +193,22 @@ pub fn extract_shell(
     progress.report(&stage, 0.3);
 
     let mut positions = vec![DVec3::ZERO; topo.roles.len()];
+    // 0/1 placements work on the signed distance to the other class, whose zero level set
+    // separates the same tetrahedra (module `distance`).
+    let field;
+    let (place_values, place_threshold) =
+        if matches!(placement, Placement::Distance | Placement::Curvature { .. }) {
+            field = distance::signed_class_distance(mesh, &marked);
+            (field.as_slice(), 0.0)
+        } else {
+            (values, threshold)
+        };
     place_vertices(
         &topo,
         mesh,
-        values,
+        place_values,
         &marked,
-        threshold,
+        place_threshold,
         placement,
         &mut positions,
     );
@@ -200,7 +220,8 @@ pub fn extract_shell(
     }
     progress.report(&stage, 0.7);
 
-    let edge_crossing = |a: u32, b: u32| hull_crossing(mesh, values, threshold, placement, a, b);
+    let edge_crossing =
+        |a: u32, b: u32| hull_crossing(mesh, place_values, place_threshold, placement, a, b);
     let (positions, triangles, polygon_of) =
         triangulate(&topo, positions, triangulation, &edge_crossing);
     // A body is one connected piece of marked material: its outer shell together with the
@@ -265,8 +286,8 @@ fn place_vertices(
         Placement::Ibc => place::ibc,
         Placement::Coi => place::coi,
         Placement::Midpoint => place::midpoint,
-        // The curvature search starts from the centroid of the crossings.
-        Placement::Curvature { .. } => place::coi,
+        // On the distance field; the curvature search starts from there.
+        Placement::Distance | Placement::Curvature { .. } => place::ibc,
     };
     positions[..topo.active_tets]
         .par_iter_mut()
@@ -333,6 +354,12 @@ fn triangulate(
                     triangles.push([poly[u], poly[(u + i) % n], poly[(u + i + 1) % n]]);
                 }
             }
+            PolygonKind::Dual if triangulation == Triangulation::MaxMinAngle => {
+                let pts: Vec<DVec3> = poly.iter().map(|&v| positions[v as usize]).collect();
+                for [a, b, c] in max_min_angle_triangulation(&pts).1 {
+                    triangles.push([poly[a], poly[b], poly[c]]);
+                }
+            }
             PolygonKind::Dual if triangulation != Triangulation::Fan => {
                 let centre = if triangulation == Triangulation::EdgeCrossing {
                     let (a, b) = topo.dual_edges[k];
@@ -370,6 +397,53 @@ fn triangulate(
         debug_assert!(triangles.len() > before);
     }
     (positions, triangles, polygon_of)
+}
+
+/// Smallest angle (radians) of triangle `abc`; 0 for a degenerate one.
+fn min_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let angle = |p: DVec3, q: DVec3, r: DVec3| {
+        let (u, w) = (q - p, r - p);
+        u.cross(w).length().atan2(u.dot(w))
+    };
+    angle(a, b, c).min(angle(b, c, a)).min(angle(c, a, b))
+}
+
+/// The triangulation of the polygon `pts` (by diagonals, no added vertex) whose smallest
+/// triangle angle is largest (dynamic programming over sub-polygons, O(n^3)); triangles as
+/// corner indices wound like the polygon, and that smallest angle.
+fn max_min_angle_triangulation(pts: &[DVec3]) -> (f64, Vec<[usize; 3]>) {
+    let n = pts.len();
+    // best[i][j]: best smallest angle over triangulations of the sub-polygon i..=j.
+    let mut best = vec![f64::INFINITY; n * n];
+    let mut split = vec![0usize; n * n];
+    for len in 2..n {
+        for i in 0..n - len {
+            let j = i + len;
+            let mut b = f64::NEG_INFINITY;
+            for k in i + 1..j {
+                let v = best[i * n + k]
+                    .min(best[k * n + j])
+                    .min(min_angle(pts[i], pts[k], pts[j]));
+                if v > b {
+                    b = v;
+                    split[i * n + j] = k;
+                }
+            }
+            best[i * n + j] = b;
+        }
+    }
+    let mut out = Vec::with_capacity(n - 2);
+    let mut stack = vec![(0usize, n - 1)];
+    while let Some((i, j)) = stack.pop() {
+        if j - i < 2 {
+            continue;
+        }
+        let k = split[i * n + j];
+        out.push([i, k, j]);
+        stack.push((i, k));
+        stack.push((k, j));
+    }
+    (best[n - 1], out)
 }
 
 /// Splits the triangles into connected bodies with compact vertex arrays and measures,

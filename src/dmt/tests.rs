@@ -73,11 +73,12 @@ fn sphere_values(mesh: &TetMesh, centre: DVec3, r: f64) -> Vec<f64> {
         .collect()
 }
 
-fn all_placements() -> [Placement; 4] {
+fn all_placements() -> [Placement; 5] {
     [
         Placement::Ibc,
         Placement::Coi,
         Placement::Midpoint,
+        Placement::Distance,
         Placement::Curvature { lattice: 7 },
     ]
 }
@@ -91,6 +92,7 @@ fn a_sampled_sphere_gives_one_closed_body_with_about_the_right_volume() {
     let exact_area = 4.0 * std::f64::consts::PI * r * r;
     for placement in all_placements() {
         for tri in [
+            Triangulation::MaxMinAngle,
             Triangulation::EdgeCrossing,
             Triangulation::Star,
             Triangulation::Fan,
