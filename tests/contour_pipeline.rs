@@ -175,7 +175,7 @@ fn binary_wells_give_a_smooth_closed_body_with_the_distance_placement_by_default
     let da = (shell.bodies[0].area - exact_area) / exact_area;
     // Marching tetrahedra on the same tetrahedra: a staircase between the samples.
     let mt = contour::run(
-        &request(samples, vec![], Some(Method::MarchingTetrahedra)),
+        &request(samples.clone(), vec![], Some(Method::MarchingTetrahedra)),
         &NoProgress,
     )
     .expect("contour");
@@ -187,7 +187,23 @@ fn binary_wells_give_a_smooth_closed_body_with_the_distance_placement_by_default
     eprintln!(
         "binary: volume error {dv:+.4}, area error {da:+.4} (MT {mt_area:+.4}), slivers {slivers:.3} (MT {mt_slivers:.3})"
     );
-    assert!(dv.abs() < 0.06, "volume error {dv:+.4}");
+    // Each body keeps the midpoint rule's volume (the balance of the distance placement).
+    let midpoint = contour::run(
+        &request(
+            samples.clone(),
+            vec![],
+            Some(Method::Dmt(Placement::Midpoint)),
+        ),
+        &NoProgress,
+    )
+    .expect("contour");
+    let mv = midpoint.shells[0].bodies[0].volume;
+    assert!(
+        (shell.bodies[0].volume - mv).abs() < 0.005 * mv,
+        "{} vs midpoint {mv}",
+        shell.bodies[0].volume
+    );
+    assert!(dv.abs() < 0.03, "volume error {dv:+.4}");
     assert!(
         da.abs() < 0.05,
         "area within 5% of the true surface: {da:+.4}"

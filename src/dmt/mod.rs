@@ -203,15 +203,20 @@ pub fn extract_shell(
         } else {
             (values, threshold)
         };
-    place_vertices(
-        &topo,
-        mesh,
-        place_values,
-        &marked,
-        place_threshold,
-        placement,
-        &mut positions,
-    );
+    let regions = mt::marked_regions(mesh, &marked);
+    if matches!(placement, Placement::Distance | Placement::Curvature { .. }) {
+        distance::place_balanced(&topo, mesh, &marked, place_values, &regions, &mut positions);
+    } else {
+        place_vertices(
+            &topo,
+            mesh,
+            place_values,
+            &marked,
+            place_threshold,
+            placement,
+            &mut positions,
+        );
+    }
     if let Placement::Curvature { lattice } = placement {
         curvature::optimize(&topo, mesh, &mut positions, lattice, progress)?;
     }
@@ -227,7 +232,6 @@ pub fn extract_shell(
     // A body is one connected piece of marked material: its outer shell together with the
     // shells of its cavities (a surface-connectivity split would make each cavity a body
     // of negative volume).
-    let regions = mt::marked_regions(mesh, &marked);
     let label: Vec<u32> = polygon_of
         .iter()
         .map(|&k| regions[polygon_marked_point(&topo, k as usize) as usize])
