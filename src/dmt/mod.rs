@@ -413,10 +413,21 @@ fn min_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
 }
 
 /// The triangulation of the polygon `pts` (by diagonals, no added vertex) whose smallest
-/// triangle angle is largest (dynamic programming over sub-polygons, O(n^3)); triangles as
-/// corner indices wound like the polygon, and that smallest angle.
+/// triangle angle is largest among those with no triangle facing against the polygon's
+/// normal (dynamic programming over sub-polygons, O(n^3)); triangles as corner indices
+/// wound like the polygon, and that smallest angle (-1 when every triangulation folds).
 fn max_min_angle_triangulation(pts: &[DVec3]) -> (f64, Vec<[usize; 3]>) {
     let n = pts.len();
+    // Newell normal of the polygon: a triangle facing against it scores below every
+    // triangle that does not, so folds are taken only where every triangulation folds.
+    let normal = (0..n).fold(DVec3::ZERO, |acc, i| acc + pts[i].cross(pts[(i + 1) % n]));
+    let score = |a: DVec3, b: DVec3, c: DVec3| {
+        if (b - a).cross(c - a).dot(normal) > 0.0 {
+            min_angle(a, b, c)
+        } else {
+            -1.0
+        }
+    };
     // best[i][j]: best smallest angle over triangulations of the sub-polygon i..=j.
     let mut best = vec![f64::INFINITY; n * n];
     let mut split = vec![0usize; n * n];
@@ -427,7 +438,7 @@ fn max_min_angle_triangulation(pts: &[DVec3]) -> (f64, Vec<[usize; 3]>) {
             for k in i + 1..j {
                 let v = best[i * n + k]
                     .min(best[k * n + j])
-                    .min(min_angle(pts[i], pts[k], pts[j]));
+                    .min(score(pts[i], pts[k], pts[j]));
                 if v > b {
                     b = v;
                     split[i * n + j] = k;
