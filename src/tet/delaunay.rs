@@ -8,6 +8,9 @@
 
 use glam::DVec3;
 
+use std::cmp::Ordering;
+
+use super::exact_int::Grid;
 use super::predicates::{self, Sign};
 use super::sort::brio_hilbert_order;
 use super::{NO_NEIGHBOUR, TetError, TetMesh};
@@ -142,7 +145,7 @@ fn exact_shift(points: &[DVec3]) -> DVec3 {
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(16))]
 struct Cell {
-    /// Vertex ids; [`INF`] in ghosts; `[DEAD, ..]` for free slots.
+    /// Vertex ids; ghosts have [`INF`] last; `[DEAD, ..]` for free slots.
     v: [u32; 4],
     /// `t2 * 4 + j` across the face opposite vertex `i`.
     n: [u32; 4],
@@ -151,6 +154,9 @@ struct Cell {
 /// Construction state: flat arrays of tetrahedra and reused buffers.
 struct Builder<'a> {
     pts: &'a [DVec3],
+    /// The points as integers on one binary grid, when they share one (lattices, UTM
+    /// well data): exact predicates then skip the per-call float-to-integer conversion.
+    grid: Option<Grid>,
     /// The tetrahedra, vertices and neighbour links side by side.
     cells: Vec<Cell>,
     free: Vec<u32>,
@@ -194,6 +200,7 @@ impl<'a> Builder<'a> {
         let estimate = pts.len().saturating_mul(7) + 64;
         let mut b = Builder {
             pts,
+            grid: Grid::new(pts),
             cells: Vec::with_capacity(estimate),
             free: Vec::new(),
             in_cavity: Vec::new(),
@@ -230,6 +237,66 @@ impl<'a> Builder<'a> {
         self.pts[v as usize]
     }
 
+    /// [`predicates::orient`] of four vertices.
+    #[inline]
+    fn orient(&self, a: u32, b: u32, c: u32, d: u32) -> Sign {
+        let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
+        if let Some(s) = predicates::orient_filter(pa, pb, pc, pd) {
+            return s;
+        }
+        match &self.grid {
+            Some(g) => Sign::of(f64::from(g.orient(a, b, c, d))),
+            None => predicates::orient_exact(pa, pb, pc, pd),
+        }
+    }
+
+    /// [`predicates::insphere`] of five vertices.
+    #[inline]
+    fn insphere(&self, [a, b, c, d]: [u32; 4], e: u32) -> Sign {
+        let (pa, pb, pc, pd, pe) = (self.p(a), self.p(b), self.p(c), self.p(d), self.p(e));
+        if let Some(s) = predicates::insphere_filter(pa, pb, pc, pd, pe) {
+            return s;
+        }
+        match &self.grid {
+            Some(g) => Sign::of(f64::from(g.insphere(a, b, c, d, e))),
+            None => predicates::insphere_exact(pa, pb, pc, pd, pe),
+        }
+    }
+
+    /// [`predicates::in_sphere_perturbed`] of the positive tetrahedron `t` and vertex `q`.
+    fn in_sphere_perturbed(&self, t: [u32; 4], q: u32) -> bool {
+        match self.insphere(t, q) {
+            Sign::Positive => return true,
+            Sign::Negative => return false,
+            Sign::Zero => {}
+        }
+        let ids = [t[0], t[1], t[2], t[3], q];
+        let mut done = [false; 5];
+        for _ in 0..5 {
+            let mut k = 5;
+            for i in 0..5 {
+                if !done[i]
+                    && (k == 5
+                        || predicates::lex_cmp(self.p(ids[i]), self.p(ids[k])) == Ordering::Greater)
+                {
+                    k = i;
+                }
+            }
+            done[k] = true;
+            if k == 4 {
+                return false;
+            }
+            let mut r = t;
+            r[k] = q;
+            match self.orient(r[0], r[1], r[2], r[3]) {
+                Sign::Positive => return true,
+                Sign::Negative => return false,
+                Sign::Zero => {}
+            }
+        }
+        false
+    }
+
     #[inline]
     fn next_random(&mut self) -> u32 {
         // xorshift64
@@ -258,12 +325,11 @@ impl<'a> Builder<'a> {
 
     /// The first tetrahedron and its four ghosts.
     fn start(&mut self, [a, b, c, d]: [u32; 4]) {
-        let (a, b) =
-            if predicates::orient(self.p(a), self.p(b), self.p(c), self.p(d)) == Sign::Positive {
-                (a, b)
-            } else {
-                (b, a)
-            };
+        let (a, b) = if self.orient(a, b, c, d) == Sign::Positive {
+            (a, b)
+        } else {
+            (b, a)
+        };
         let finite = [a, b, c, d];
         let t0 = self.alloc();
         self.cells[t0 as usize].v = finite;
@@ -273,6 +339,12 @@ impl<'a> Builder<'a> {
             tv[f] = INF;
             // Swapping two other vertices puts the infinite vertex outside the face.
             tv.swap((f + 1) % 4, (f + 2) % 4);
+            // Ghosts keep the infinite vertex last (two swaps keep the orientation).
+            if f != 3 {
+                tv.swap(f, 3);
+                let others: Vec<usize> = (0..3).filter(|&i| i != f).collect();
+                tv.swap(others[0], others[1]);
+            }
             self.cells[g as usize].v = tv;
         }
         // Match the 20 faces pairwise.
@@ -302,65 +374,63 @@ impl<'a> Builder<'a> {
         self.last = t0;
     }
 
-    /// Does `q` conflict with tetrahedron `t` (inside its perturbed circumsphere, or for a
-    /// ghost, strictly beyond its hull face or on it inside the face's circumcircle)?
-    fn conflict(&self, t: u32, q: DVec3) -> bool {
+    /// Does vertex `v` conflict with tetrahedron `t` (inside its perturbed circumsphere,
+    /// or for a ghost, strictly beyond its hull face or on it inside the face's
+    /// circumcircle)?
+    #[inline]
+    fn conflict(&self, t: u32, v: u32) -> bool {
         let tv = self.cells[t as usize].v;
-        if let Some(k) = tv.iter().position(|&v| v == INF) {
-            let mut r = [q; 4];
-            for (i, slot) in r.iter_mut().enumerate() {
-                if i != k {
-                    *slot = self.p(tv[i]);
-                }
-            }
-            match predicates::orient(r[0], r[1], r[2], r[3]) {
+        if tv[3] == INF {
+            match self.orient(tv[0], tv[1], tv[2], v) {
                 Sign::Positive => true,
                 Sign::Negative => false,
                 Sign::Zero => {
-                    let face = [r[(k + 1) % 4], r[(k + 2) % 4], r[(k + 3) % 4]];
-                    predicates::in_circle_coplanar_perturbed(face[0], face[1], face[2], q)
+                    let [a, b, c] = [tv[0], tv[1], tv[2]].map(|u| self.p(u));
+                    predicates::in_circle_coplanar_perturbed(a, b, c, self.p(v))
                 }
             }
         } else {
-            predicates::in_sphere_perturbed(tv.map(|v| self.p(v)), q)
+            self.in_sphere_perturbed(tv, v)
         }
     }
 
-    /// Visibility walk from the last created tetrahedron to one in conflict with `q`: a
-    /// finite tetrahedron containing `q`, or a ghost whose hull face `q` is strictly beyond.
-    fn locate(&mut self, q: DVec3) -> u32 {
+    /// Visibility walk from the last created tetrahedron to one in conflict with vertex
+    /// `q`: a finite tetrahedron containing `q`, or a ghost whose hull face `q` is strictly
+    /// beyond. The face the walk came through is not tested again.
+    fn locate(&mut self, q: u32) -> u32 {
         let mut t = self.last;
-        if let Some(k) = self.cells[t as usize].v.iter().position(|&v| v == INF) {
-            t = self.cells[t as usize].n[k] >> 2;
+        if self.cells[t as usize].v[3] == INF {
+            t = self.cells[t as usize].n[3] >> 2;
         }
-        loop {
-            let tv = self.cells[t as usize].v;
-            if tv.contains(&INF) {
+        let mut from = 4;
+        'walk: loop {
+            let cell = self.cells[t as usize];
+            if cell.v[3] == INF {
                 return t;
             }
-            let p = tv.map(|v| self.p(v));
             let start = self.next_random();
-            let mut next = None;
             for s in 0..4u32 {
                 let f = ((start + s) & 3) as usize;
-                let mut r = p;
+                if f == from {
+                    continue;
+                }
+                let mut r = cell.v;
                 r[f] = q;
-                if predicates::orient(r[0], r[1], r[2], r[3]) == Sign::Negative {
-                    next = Some(self.cells[t as usize].n[f] >> 2);
-                    break;
+                if self.orient(r[0], r[1], r[2], r[3]) == Sign::Negative {
+                    let link = cell.n[f];
+                    t = link >> 2;
+                    from = (link & 3) as usize;
+                    continue 'walk;
                 }
             }
-            match next {
-                Some(n) => t = n,
-                None => return t,
-            }
+            return t;
         }
     }
 
-    /// Inserts vertex `v`: grows the conflict cavity breadth-first and stars it from `v`.
+    /// Inserts vertex `v`: grows the conflict cavity breadth-first and stars it from `v`,
+    /// writing the new tetrahedra over the cavity's slots first.
     fn insert(&mut self, v: u32) {
-        let q = self.p(v);
-        let t0 = self.locate(q);
+        let t0 = self.locate(v);
         self.cavity.clear();
         self.tested_list.clear();
         self.pending.clear();
@@ -370,14 +440,15 @@ impl<'a> Builder<'a> {
         while i < self.cavity.len() {
             let t = self.cavity[i];
             i += 1;
+            let cell = self.cells[t as usize];
             for f in 0..4 {
-                let link = self.cells[t as usize].n[f];
+                let link = cell.n[f];
                 let t2 = link >> 2;
                 if bit(&self.in_cavity, t2) {
                     continue;
                 }
                 if !bit(&self.tested, t2) {
-                    if self.conflict(t2, q) {
+                    if self.conflict(t2, v) {
                         set_bit(&mut self.in_cavity, t2, true);
                         self.cavity.push(t2);
                         continue;
@@ -385,7 +456,7 @@ impl<'a> Builder<'a> {
                     set_bit(&mut self.tested, t2, true);
                     self.tested_list.push(t2);
                 }
-                let mut tv = self.cells[t as usize].v;
+                let mut tv = cell.v;
                 tv[f] = v;
                 self.pending.push((tv, f as u32, link));
             }
@@ -394,33 +465,50 @@ impl<'a> Builder<'a> {
             set_bit(&mut self.tested, self.tested_list[k], false);
         }
         for k in 0..self.cavity.len() {
-            let t = self.cavity[k];
-            set_bit(&mut self.in_cavity, t, false);
-            self.cells[t as usize].v[0] = DEAD;
-            self.free.push(t);
+            set_bit(&mut self.in_cavity, self.cavity[k], false);
         }
         self.new_tets.clear();
         for k in 0..self.pending.len() {
             let (tv, f, link) = self.pending[k];
-            let s = self.alloc();
-            self.cells[s as usize].v = tv;
+            let s = if k < self.cavity.len() {
+                self.cavity[k]
+            } else {
+                self.alloc()
+            };
+            self.cells[s as usize] = Cell {
+                v: tv,
+                n: [NO_NEIGHBOUR; 4],
+            };
             self.cells[s as usize].n[f as usize] = link;
             self.cells[(link >> 2) as usize].n[(link & 3) as usize] = s * 4 + f;
             self.new_tets.push(s);
+        }
+        for k in self.pending.len()..self.cavity.len() {
+            let t = self.cavity[k];
+            self.cells[t as usize].v[0] = DEAD;
+            self.free.push(t);
         }
         self.link_new_tets();
         self.last = self
             .new_tets
             .iter()
             .copied()
-            .find(|&s| !self.cells[s as usize].v.contains(&INF))
+            .find(|&s| self.cells[s as usize].v[3] != INF)
             .unwrap_or(self.new_tets[0]);
     }
 
     /// Links the new tetrahedra to each other: two of them share a face through the new
     /// vertex exactly when they share the cavity-boundary edge opposite it.
     fn link_new_tets(&mut self) {
-        let size = (self.new_tets.len() * 6).next_power_of_two().max(16);
+        /// For the new vertex at position `f`: the three faces through it (opposite `j`)
+        /// and the two positions of the edge each is keyed by.
+        const FACES_THROUGH: [[(u32, usize, usize); 3]; 4] = [
+            [(1, 2, 3), (2, 1, 3), (3, 1, 2)],
+            [(0, 2, 3), (2, 0, 3), (3, 0, 2)],
+            [(0, 1, 3), (1, 0, 3), (3, 0, 1)],
+            [(0, 1, 2), (1, 0, 2), (2, 0, 1)],
+        ];
+        let size = (self.new_tets.len() * 4).next_power_of_two().max(16);
         if self.edge_table.len() < size {
             self.edge_table.resize(size, (EMPTY, 0));
         }
@@ -428,21 +516,10 @@ impl<'a> Builder<'a> {
         self.edge_table[..size].fill((EMPTY, 0));
         for k in 0..self.new_tets.len() {
             let s = self.new_tets[k];
-            let (_, apex, _) = self.pending[k];
-            let tv = self.cells[s as usize].v;
-            for j in 0..4u32 {
-                if j == apex {
-                    continue;
-                }
-                let mut e = [0u32; 2];
-                let mut n = 0;
-                for (pos, &vert) in tv.iter().enumerate() {
-                    if pos as u32 != apex && pos as u32 != j {
-                        e[n] = vert;
-                        n += 1;
-                    }
-                }
-                let key = (u64::from(e[0].min(e[1])) << 32) | u64::from(e[0].max(e[1]));
+            let (tv, apex, _) = self.pending[k];
+            for &(j, a, b) in &FACES_THROUGH[apex as usize] {
+                let (x, y) = (tv[a], tv[b]);
+                let key = (u64::from(x.min(y)) << 32) | u64::from(x.max(y));
                 let mut h = (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40) as usize & mask;
                 loop {
                     let (slot_key, slot_link) = self.edge_table[h];
@@ -471,8 +548,8 @@ impl<'a> Builder<'a> {
             if cells[t].v[0] == DEAD {
                 continue;
             }
-            if let Some(k) = cells[t].v.iter().position(|&v| v == INF) {
-                let link = cells[t].n[k];
+            if cells[t].v[3] == INF {
+                let link = cells[t].n[3];
                 cells[(link >> 2) as usize].n[(link & 3) as usize] = NO_NEIGHBOUR;
                 cells[t].v[0] = DEAD;
             }
