@@ -51,17 +51,18 @@ pub fn build(mut points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh,
     }
     // Vertices are numbered in insertion order, so the points the construction touches
     // one after the other are neighbours in memory too.
-    let order = brio_hilbert_order(&points);
-    let mut rank = vec![0u32; points.len()];
-    for (k, &v) in order.iter().enumerate() {
-        rank[v as usize] = k as u32;
-    }
-    points = order.iter().map(|&v| points[v as usize]).collect();
-    drop(order);
+    let mut order = brio_hilbert_order(&points);
+    // In place (no second copy of the points): points[k] = old points[order[k]], then
+    // order becomes its inverse, the new id of each old vertex.
+    let mut done = vec![0u64; points.len().div_ceil(64)];
+    permute_in_place(&mut points, &order, &mut done);
+    done.fill(0);
+    invert_in_place(&mut order, &mut done);
+    drop(done);
     for v in &mut vertex_of_input {
-        *v = rank[*v as usize];
+        *v = order[*v as usize];
     }
-    drop(rank);
+    drop(order);
     let shift = exact_shift(&points);
     for p in &mut points {
         *p -= shift;
@@ -78,6 +79,50 @@ pub fn build(mut points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh,
         vertex_of_input,
         duplicates_merged,
     })
+}
+
+/// `items[k] = old items[order[k]]` for a permutation `order`, following its cycles
+/// (`done`: one zeroed bit per item).
+fn permute_in_place<T: Copy>(items: &mut [T], order: &[u32], done: &mut [u64]) {
+    for start in 0..items.len() {
+        if bit(done, start as u32) {
+            continue;
+        }
+        let first = items[start];
+        let mut k = start;
+        loop {
+            set_bit(done, k as u32, true);
+            let src = order[k] as usize;
+            if src == start {
+                items[k] = first;
+                break;
+            }
+            items[k] = items[src];
+            k = src;
+        }
+    }
+}
+
+/// Replaces the permutation `order` by its inverse, following its cycles (`done`: one
+/// zeroed bit per item).
+fn invert_in_place(order: &mut [u32], done: &mut [u64]) {
+    for start in 0..order.len() as u32 {
+        if bit(done, start) {
+            continue;
+        }
+        let mut prev = start;
+        let mut cur = order[start as usize];
+        loop {
+            let next = order[cur as usize];
+            order[cur as usize] = prev;
+            set_bit(done, cur, true);
+            if cur == start {
+                break;
+            }
+            prev = cur;
+            cur = next;
+        }
+    }
 }
 
 /// Merges points with exactly equal coordinates in place (first occurrence kept, input
@@ -157,6 +202,9 @@ struct Builder<'a> {
     /// The points as integers on one binary grid, when they share one (lattices, UTM
     /// well data): exact predicates then skip the per-call float-to-integer conversion.
     grid: Option<Grid>,
+    /// With a grid (where co-spherical ties are common): the lexicographic rank of each
+    /// vertex, so the symbolic perturbation compares integers. Empty otherwise.
+    lex_rank: Vec<u32>,
     /// The tetrahedra, vertices and neighbour links side by side.
     cells: Vec<Cell>,
     free: Vec<u32>,
@@ -200,7 +248,8 @@ impl<'a> Builder<'a> {
         let estimate = pts.len().saturating_mul(7) + 64;
         let mut b = Builder {
             pts,
-            grid: Grid::new(pts),
+            grid: None,
+            lex_rank: Vec::new(),
             cells: Vec::with_capacity(estimate),
             free: Vec::new(),
             in_cavity: Vec::new(),
@@ -213,6 +262,10 @@ impl<'a> Builder<'a> {
             last: 0,
             rng: 0x2545_F491_4F6C_DD1D,
         };
+        b.grid = Grid::new(pts);
+        if b.grid.is_some() {
+            b.lex_rank = lex_ranks(pts);
+        }
         b.start(first);
         let total = pts.len();
         for v in 0..total as u32 {
@@ -240,6 +293,11 @@ impl<'a> Builder<'a> {
     /// [`predicates::orient`] of four vertices.
     #[inline]
     fn orient(&self, a: u32, b: u32, c: u32, d: u32) -> Sign {
+        if let Some(g) = &self.grid
+            && g.orient_is_cheap()
+        {
+            return Sign::of(f64::from(g.orient(a, b, c, d)));
+        }
         let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
         if let Some(s) = predicates::orient_filter(pa, pb, pc, pd) {
             return s;
@@ -271,14 +329,18 @@ impl<'a> Builder<'a> {
             Sign::Zero => {}
         }
         let ids = [t[0], t[1], t[2], t[3], q];
+        let greater = |i: usize, k: usize| {
+            if self.lex_rank.is_empty() {
+                predicates::lex_cmp(self.p(ids[i]), self.p(ids[k])) == Ordering::Greater
+            } else {
+                self.lex_rank[ids[i] as usize] > self.lex_rank[ids[k] as usize]
+            }
+        };
         let mut done = [false; 5];
         for _ in 0..5 {
             let mut k = 5;
             for i in 0..5 {
-                if !done[i]
-                    && (k == 5
-                        || predicates::lex_cmp(self.p(ids[i]), self.p(ids[k])) == Ordering::Greater)
-                {
+                if !done[i] && (k == 5 || greater(i, k)) {
                     k = i;
                 }
             }
@@ -593,6 +655,18 @@ impl<'a> Builder<'a> {
         }
         (tets, nbrs)
     }
+}
+
+/// The rank of each point in the lexicographic order of `(x, y, z)` (distinct points).
+fn lex_ranks(pts: &[DVec3]) -> Vec<u32> {
+    use rayon::prelude::*;
+    let mut sorted: Vec<u32> = (0..pts.len() as u32).collect();
+    sorted.par_sort_unstable_by(|&i, &j| predicates::lex_cmp(pts[i as usize], pts[j as usize]));
+    let mut rank = vec![0u32; pts.len()];
+    for (k, &v) in sorted.iter().enumerate() {
+        rank[v as usize] = k as u32;
+    }
+    rank
 }
 
 /// Four affinely independent vertices, the first ones in insertion order (vertex ids), so

@@ -298,6 +298,8 @@ pub struct Grid {
     shift: [u32; 3],
     /// `orient`'s determinant after the per-axis scaling always fits in i128.
     orient_small: bool,
+    /// ... and even in i64: then it costs no more than the float filter.
+    orient_tiny: bool,
     /// `insphere`'s determinant always fits in i128.
     insphere_small: bool,
 }
@@ -350,8 +352,15 @@ impl Grid {
             g,
             shift,
             orient_small: orient_bits <= 126,
+            orient_tiny: orient_bits <= 62,
             insphere_small: 5 * diff_bits + 7 <= 126,
         })
+    }
+
+    /// Is the exact `orient` as cheap as its float filter (all in i64)?
+    #[inline]
+    pub fn orient_is_cheap(&self) -> bool {
+        self.orient_tiny
     }
 
     /// Exact sign of `orient` (module conventions of `predicates`) of four vertices.
@@ -363,6 +372,14 @@ impl Grid {
             [g[0] >> s[0], g[1] >> s[1], g[2] >> s[2]]
         };
         let (a, b, c, d) = (p(a), p(b), p(c), p(d));
+        if self.orient_tiny {
+            let diff = |q: [i64; 3]| [q[0] - a[0], q[1] - a[1], q[2] - a[2]];
+            let (b, c, d) = (diff(b), diff(c), diff(d));
+            let m0 = c[1] * d[2] - c[2] * d[1];
+            let m1 = c[0] * d[2] - c[2] * d[0];
+            let m2 = c[0] * d[1] - c[1] * d[0];
+            return (b[0] * m0 - b[1] * m1 + b[2] * m2).signum() as i32;
+        }
         let diff = |q: [i64; 3]| [0, 1, 2].map(|k| i128::from(q[k] - a[k]));
         let (b, c, d) = (diff(b), diff(c), diff(d));
         if self.orient_small {
