@@ -468,4 +468,84 @@ mod tests {
         assert_eq!(g[0], [2, -12, 4097]);
         assert!(to_grid([DVec3::new(1e300, 1e-300, 0.0)]).is_none());
     }
+
+    fn xorshift(state: &mut u64) -> u64 {
+        *state ^= *state << 13;
+        *state ^= *state >> 7;
+        *state ^= *state << 17;
+        *state
+    }
+
+    fn robust_orient(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> i32 {
+        crate::tet::predicates::orient_robust(a, b, c, d) as i32 - 1
+    }
+
+    fn robust_insphere(p: [DVec3; 5]) -> i32 {
+        crate::tet::predicates::insphere_robust(p[0], p[1], p[2], p[3], p[4]) as i32 - 1
+    }
+
+    /// Grid predicates against `robust` on the point sets themselves: jittered UTM
+    /// lattices (ties, 256-bit insphere, i128 orient), small integer lattices (i64
+    /// orient, i128 insphere) and wide random grids (256-bit orient).
+    #[test]
+    fn grid_predicates_match_robust_on_every_width() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let utm: Vec<DVec3> = (0..400)
+            .map(|k| {
+                let well = (k / 20) as f64;
+                let jitter = (well * 0.618_033_988_749).fract() * 3.1;
+                // Jittered collars at UTM magnitude, then the exact local shift.
+                let x = 500_000.0 + (well % 5.0) * 50.0 + jitter;
+                let y = 6_500_000.0 + (well / 5.0).floor() * 50.0 - jitter;
+                DVec3::new(x - 500_100.0, y - 6_500_075.0, (k % 20) as f64 - 9.5)
+            })
+            .collect();
+        let small: Vec<DVec3> = (0..400)
+            .map(|k| DVec3::new((k % 7) as f64, ((k / 7) % 7) as f64, (k / 49) as f64 * 0.5))
+            .collect();
+        let wide: Vec<DVec3> = (0..400)
+            .map(|_| {
+                let mut c = || (xorshift(&mut state) >> 18) as f64 - (1u64 << 45) as f64;
+                DVec3::new(c(), c(), c())
+            })
+            .collect();
+        for (name, pts) in [("utm", utm), ("small", small), ("wide", wide)] {
+            let grid = Grid::new(&pts).expect("on a binary grid");
+            let mut zeros = 0;
+            for _ in 0..20_000 {
+                let mut pick = || (xorshift(&mut state) % pts.len() as u64) as u32;
+                let ids = [pick(), pick(), pick(), pick(), pick()];
+                let p = ids.map(|v| pts[v as usize]);
+                let o = grid.orient(ids[0], ids[1], ids[2], ids[3]);
+                assert_eq!(o, robust_orient(p[0], p[1], p[2], p[3]), "{name} orient");
+                let s = grid.insphere(ids[0], ids[1], ids[2], ids[3], ids[4]);
+                assert_eq!(s, robust_insphere(p), "{name} insphere");
+                zeros += usize::from(s == 0 && o != 0);
+            }
+            if name != "wide" {
+                assert!(zeros > 50, "{name}: the sample must hit co-spherical ties");
+            }
+        }
+        // Coordinates spanning too many bits have no grid.
+        assert!(Grid::new(&[DVec3::new(1e20, 1e-20, 0.0)]).is_none());
+    }
+
+    #[test]
+    fn wide_insphere_matches_the_generic_256_bit_path_near_its_limit() {
+        let mut state = 0x1234_5678_9abc_def1u64;
+        for _ in 0..20_000 {
+            let mut c = || ((xorshift(&mut state) >> 16) as i64 - (1i64 << 47)) as i128;
+            let v = [
+                [c(), c(), c()],
+                [c(), c(), c()],
+                [c(), c(), c()],
+                [c(), c(), c()],
+            ];
+            let p = |k: usize| DVec3::new(v[k][0] as f64, v[k][1] as f64, v[k][2] as f64);
+            assert_eq!(
+                insphere_wide(v),
+                robust_insphere([p(0), p(1), p(2), p(3), DVec3::ZERO])
+            );
+        }
+    }
 }
