@@ -339,8 +339,8 @@ impl<'a> Builder<'a> {
         let mut done = [false; 5];
         for _ in 0..5 {
             let mut k = 5;
-            for i in 0..5 {
-                if !done[i] && (k == 5 || greater(i, k)) {
+            for (i, &is_done) in done.iter().enumerate() {
+                if !is_done && (k == 5 || greater(i, k)) {
                     k = i;
                 }
             }
