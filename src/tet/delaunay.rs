@@ -42,7 +42,7 @@ pub fn build(mut points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh,
     for p in &mut points {
         *p += DVec3::ZERO;
     }
-    let mut vertex_of_input = merge_duplicates(&mut points);
+    let (mut vertex_of_input, scratch) = merge_duplicates(&mut points);
     let duplicates_merged = vertex_of_input.len() - points.len();
     if points.len() < 4 {
         return Err(TetError::TooFewPoints {
@@ -63,6 +63,10 @@ pub fn build(mut points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh,
         *v = order[*v as usize];
     }
     drop(order);
+    // Freed only now, after the other sort temporaries: with glibc, freeing a large block
+    // raises the size below which later blocks come from the heap, and freed heap blocks
+    // stay resident. Kept until here, the permutation above was mapped and is returned.
+    drop(scratch);
     let shift = exact_shift(&points);
     for p in &mut points {
         *p -= shift;
@@ -126,8 +130,9 @@ fn invert_in_place(order: &mut [u32], done: &mut [u64]) {
 }
 
 /// Merges points with exactly equal coordinates in place (first occurrence kept, input
-/// order preserved) and returns the vertex of each input point.
-fn merge_duplicates(points: &mut Vec<DVec3>) -> Vec<u32> {
+/// order preserved) and returns the vertex of each input point, and a spent scratch buffer
+/// for the caller to drop when its other temporaries are gone.
+fn merge_duplicates(points: &mut Vec<DVec3>) -> (Vec<u32>, Vec<u32>) {
     use rayon::prelude::*;
     let n = points.len();
     let mut sorted: Vec<u32> = (0..n as u32).collect();
@@ -147,7 +152,6 @@ fn merge_duplicates(points: &mut Vec<DVec3>) -> Vec<u32> {
         }
         vertex_of_input[i] = sorted[run_start];
     }
-    drop(sorted);
     // Then: representatives numbered in input order, duplicates pointed at them.
     let mut next = 0u32;
     for i in 0..n {
@@ -161,7 +165,7 @@ fn merge_duplicates(points: &mut Vec<DVec3>) -> Vec<u32> {
         }
     }
     points.truncate(next as usize);
-    vertex_of_input
+    (vertex_of_input, sorted)
 }
 
 /// A per-axis translation under which every coordinate difference `x - shift` is exact
@@ -296,14 +300,15 @@ impl<'a> Builder<'a> {
         if let Some(g) = &self.grid
             && g.orient_is_cheap()
         {
-            return Sign::of(f64::from(g.orient(a, b, c, d)));
+            let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
+            return Sign::of(f64::from(g.orient(pa, pb, pc, pd)));
         }
         let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
         if let Some(s) = predicates::orient_filter(pa, pb, pc, pd) {
             return s;
         }
         match &self.grid {
-            Some(g) => Sign::of(f64::from(g.orient(a, b, c, d))),
+            Some(g) => Sign::of(f64::from(g.orient(pa, pb, pc, pd))),
             None => predicates::orient_exact(pa, pb, pc, pd),
         }
     }
@@ -316,7 +321,7 @@ impl<'a> Builder<'a> {
             return s;
         }
         match &self.grid {
-            Some(g) => Sign::of(f64::from(g.insphere(a, b, c, d, e))),
+            Some(g) => Sign::of(f64::from(g.insphere(pa, pb, pc, pd, pe))),
             None => predicates::insphere_exact(pa, pb, pc, pd, pe),
         }
     }

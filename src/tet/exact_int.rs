@@ -285,17 +285,21 @@ fn insphere_wide([ad, bd, cd, dd]: [[i128; 3]; 4]) -> i32 {
     -det.signum()
 }
 
-/// Every point of a set as integers on one common binary grid (coordinate = `g * 2^unit`),
-/// computed once, so exact predicates on the set are integer arithmetic on cached values.
+/// The common binary grid of a point set (every coordinate is an integer times `2^unit`),
+/// found once, so exact predicates on the set convert a coordinate to its integer with one
+/// exact multiplication by a power of two instead of taking the float apart.
 ///
-/// Invariant: every `|g|` is below 2^[`GRID_BITS`], so differences are below 2^49 and the
-/// determinants fit the widths chosen by `orient_small` / `insphere_small`.
+/// Invariant: every coordinate of the set is a multiple of `2^unit` below `2^(unit + 47)` in
+/// magnitude, so integers are below 2^47, differences below 2^48, and the determinants fit
+/// the widths chosen by `orient_small` / `insphere_small`. Only points of that set may be
+/// passed to its methods.
 #[derive(Debug)]
 pub struct Grid {
-    g: Vec<[i64; 3]>,
-    /// Per axis, every `g[_][k]` is a multiple of `2^shift[k]`: `orient` scales each axis
-    /// by its own power of two (its determinant only changes by a positive factor).
-    shift: [u32; 3],
+    /// `2^-unit`: coordinate times `scale` is its exact integer.
+    scale: f64,
+    /// Per axis, `2^-lo[k]` for the axis' own lowest set bit: `orient` scales each axis
+    /// apart (its determinant only changes by a positive factor).
+    orient_scale: [f64; 3],
     /// `orient`'s determinant after the per-axis scaling always fits in i128.
     orient_small: bool,
     /// ... and even in i64: then it costs no more than the float filter.
@@ -306,6 +310,13 @@ pub struct Grid {
 
 /// Largest coordinate magnitude of a [`Grid`], in bits of grid units.
 const GRID_BITS: i32 = 47;
+
+/// `2^k` for `-1022 <= k <= 1023`.
+fn pow2(k: i32) -> Option<f64> {
+    (-1022..=1023)
+        .contains(&k)
+        .then(|| f64::from_bits(((k + 1023) as u64) << 52))
+}
 
 impl Grid {
     /// The grid of `points`, or `None` when their coordinates span more than
@@ -333,24 +344,20 @@ impl Grid {
         if unit == i32::MAX {
             return None;
         }
-        let mut shift = [0u32; 3];
+        let mut orient_scale = [1.0; 3];
         // Bits of the differences per axis after the per-axis scaling.
         let mut orient_bits = 3;
         let mut diff_bits = 0;
         for k in 0..3 {
             if lo[k] != i32::MAX {
-                shift[k] = (lo[k] - unit) as u32;
+                orient_scale[k] = pow2(-lo[k])?;
                 orient_bits += hi[k] - lo[k] + 1;
                 diff_bits = diff_bits.max(hi[k] - unit + 1);
             }
         }
-        let g = points
-            .iter()
-            .map(|p| [0, 1, 2].map(|k| grid_value(p[k], unit)))
-            .collect();
         Some(Grid {
-            g,
-            shift,
+            scale: pow2(-unit)?,
+            orient_scale,
             orient_small: orient_bits <= 126,
             orient_tiny: orient_bits <= 62,
             insphere_small: 5 * diff_bits + 7 <= 126,
@@ -363,13 +370,17 @@ impl Grid {
         self.orient_tiny
     }
 
-    /// Exact sign of `orient` (module conventions of `predicates`) of four vertices.
+    /// Exact sign of `orient` (module conventions of `predicates`) of four points of the set.
     #[inline]
-    pub fn orient(&self, a: u32, b: u32, c: u32, d: u32) -> i32 {
-        let s = self.shift;
-        let p = |v: u32| {
-            let g = self.g[v as usize];
-            [g[0] >> s[0], g[1] >> s[1], g[2] >> s[2]]
+    pub fn orient(&self, a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> i32 {
+        let s = self.orient_scale;
+        // Exact: a multiple of 2^lo[k] times 2^-lo[k] is an integer below 2^47.
+        let p = |q: DVec3| {
+            [
+                (q.x * s[0]) as i64,
+                (q.y * s[1]) as i64,
+                (q.z * s[2]) as i64,
+            ]
         };
         let (a, b, c, d) = (p(a), p(b), p(c), p(d));
         if self.orient_tiny {
@@ -391,13 +402,16 @@ impl Grid {
         orient_of_diffs([b, c, d])
     }
 
-    /// Exact sign of `insphere` (module conventions of `predicates`) of five vertices.
+    /// Exact sign of `insphere` (module conventions of `predicates`) of five points of the
+    /// set.
     #[inline]
-    pub fn insphere(&self, a: u32, b: u32, c: u32, d: u32, e: u32) -> i32 {
-        let e = self.g[e as usize];
-        let diff = |v: u32| {
-            let q = self.g[v as usize];
-            [0, 1, 2].map(|k| i128::from(q[k] - e[k]))
+    pub fn insphere(&self, a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> i32 {
+        let s = self.scale;
+        let g = |q: DVec3| [(q.x * s) as i64, (q.y * s) as i64, (q.z * s) as i64];
+        let ge = g(e);
+        let diff = |q: DVec3| {
+            let q = g(q);
+            [0, 1, 2].map(|k| i128::from(q[k] - ge[k]))
         };
         let v = [diff(a), diff(b), diff(c), diff(d)];
         if self.insphere_small {
@@ -406,28 +420,6 @@ impl Grid {
             insphere_wide(v)
         }
     }
-}
-
-/// `c` (a multiple of `2^unit`, below `2^(unit + 63)`) in units of `2^unit`.
-fn grid_value(c: f64, unit: i32) -> i64 {
-    if c == 0.0 {
-        return 0;
-    }
-    let bits = c.to_bits();
-    let exp = ((bits >> 52) & 0x7ff) as i32;
-    let frac = bits & ((1u64 << 52) - 1);
-    let (m, e) = if exp == 0 {
-        (frac, -1074)
-    } else {
-        (frac | (1u64 << 52), exp - 1075)
-    };
-    let shift = e - unit;
-    let v = if shift >= 0 {
-        (m << shift) as i64
-    } else {
-        (m >> (-shift)) as i64
-    };
-    if c < 0.0 { -v } else { v }
 }
 
 #[cfg(test)]
@@ -516,9 +508,9 @@ mod tests {
                 let mut pick = || (xorshift(&mut state) % pts.len() as u64) as u32;
                 let ids = [pick(), pick(), pick(), pick(), pick()];
                 let p = ids.map(|v| pts[v as usize]);
-                let o = grid.orient(ids[0], ids[1], ids[2], ids[3]);
+                let o = grid.orient(p[0], p[1], p[2], p[3]);
                 assert_eq!(o, robust_orient(p[0], p[1], p[2], p[3]), "{name} orient");
-                let s = grid.insphere(ids[0], ids[1], ids[2], ids[3], ids[4]);
+                let s = grid.insphere(p[0], p[1], p[2], p[3], p[4]);
                 assert_eq!(s, robust_insphere(p), "{name} insphere");
                 zeros += usize::from(s == 0 && o != 0);
             }
