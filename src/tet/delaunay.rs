@@ -688,3 +688,36 @@ fn initial_simplex(pts: &[DVec3]) -> Result<[u32; 4], TetError> {
         .ok_or(TetError::AllCoplanar)?;
     Ok([a, b, c, d])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn in_place_permutation_and_inverse_match_the_copying_versions() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        for n in [1usize, 2, 3, 64, 65, 1000] {
+            // A random permutation (Fisher-Yates with xorshift).
+            let mut order: Vec<u32> = (0..n as u32).collect();
+            for i in (1..n).rev() {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                order.swap(i, (state % (i as u64 + 1)) as usize);
+            }
+            let items: Vec<u64> = (0..n as u64).map(|i| i * 7 + 3).collect();
+            let expected: Vec<u64> = order.iter().map(|&k| items[k as usize]).collect();
+            let mut inverse = vec![0u32; n];
+            for (k, &v) in order.iter().enumerate() {
+                inverse[v as usize] = k as u32;
+            }
+            let mut done = vec![0u64; n.div_ceil(64)];
+            let mut permuted = items.clone();
+            permute_in_place(&mut permuted, &order, &mut done);
+            assert_eq!(permuted, expected);
+            done.fill(0);
+            invert_in_place(&mut order, &mut done);
+            assert_eq!(order, inverse);
+        }
+    }
+}
