@@ -256,8 +256,10 @@ impl<'a> Builder<'a> {
             lex_rank: Vec::new(),
             cells: Vec::with_capacity(estimate),
             free: Vec::new(),
-            in_cavity: Vec::new(),
-            tested: Vec::new(),
+            // Sized once for the estimate (zeroed pages are not resident until written):
+            // growing them step by step would leave the outgrown copies resident.
+            in_cavity: vec![0; estimate.div_ceil(64)],
+            tested: vec![0; estimate.div_ceil(64)],
             cavity: Vec::new(),
             tested_list: Vec::new(),
             pending: Vec::new(),
