@@ -8,6 +8,9 @@
 
 use glam::DVec3;
 
+use std::cmp::Ordering;
+
+use super::exact_int::Grid;
 use super::predicates::{self, Sign};
 use super::sort::brio_hilbert_order;
 use super::{NO_NEIGHBOUR, TetError, TetMesh};
@@ -39,7 +42,7 @@ pub fn build(mut points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh,
     for p in &mut points {
         *p += DVec3::ZERO;
     }
-    let mut vertex_of_input = merge_duplicates(&mut points);
+    let (mut vertex_of_input, scratch) = merge_duplicates(&mut points);
     let duplicates_merged = vertex_of_input.len() - points.len();
     if points.len() < 4 {
         return Err(TetError::TooFewPoints {
@@ -48,17 +51,22 @@ pub fn build(mut points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh,
     }
     // Vertices are numbered in insertion order, so the points the construction touches
     // one after the other are neighbours in memory too.
-    let order = brio_hilbert_order(&points);
-    let mut rank = vec![0u32; points.len()];
-    for (k, &v) in order.iter().enumerate() {
-        rank[v as usize] = k as u32;
-    }
-    points = order.iter().map(|&v| points[v as usize]).collect();
-    drop(order);
+    let mut order = brio_hilbert_order(&points);
+    // In place (no second copy of the points): points[k] = old points[order[k]], then
+    // order becomes its inverse, the new id of each old vertex.
+    let mut done = vec![0u64; points.len().div_ceil(64)];
+    permute_in_place(&mut points, &order, &mut done);
+    done.fill(0);
+    invert_in_place(&mut order, &mut done);
+    drop(done);
     for v in &mut vertex_of_input {
-        *v = rank[*v as usize];
+        *v = order[*v as usize];
     }
-    drop(rank);
+    drop(order);
+    // Freed only now, after the other sort temporaries: with glibc, freeing a large block
+    // raises the size below which later blocks come from the heap, and freed heap blocks
+    // stay resident. Kept until here, the permutation above was mapped and is returned.
+    drop(scratch);
     let shift = exact_shift(&points);
     for p in &mut points {
         *p -= shift;
@@ -77,9 +85,54 @@ pub fn build(mut points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh,
     })
 }
 
+/// `items[k] = old items[order[k]]` for a permutation `order`, following its cycles
+/// (`done`: one zeroed bit per item).
+fn permute_in_place<T: Copy>(items: &mut [T], order: &[u32], done: &mut [u64]) {
+    for start in 0..items.len() {
+        if bit(done, start as u32) {
+            continue;
+        }
+        let first = items[start];
+        let mut k = start;
+        loop {
+            set_bit(done, k as u32, true);
+            let src = order[k] as usize;
+            if src == start {
+                items[k] = first;
+                break;
+            }
+            items[k] = items[src];
+            k = src;
+        }
+    }
+}
+
+/// Replaces the permutation `order` by its inverse, following its cycles (`done`: one
+/// zeroed bit per item).
+fn invert_in_place(order: &mut [u32], done: &mut [u64]) {
+    for start in 0..order.len() as u32 {
+        if bit(done, start) {
+            continue;
+        }
+        let mut prev = start;
+        let mut cur = order[start as usize];
+        loop {
+            let next = order[cur as usize];
+            order[cur as usize] = prev;
+            set_bit(done, cur, true);
+            if cur == start {
+                break;
+            }
+            prev = cur;
+            cur = next;
+        }
+    }
+}
+
 /// Merges points with exactly equal coordinates in place (first occurrence kept, input
-/// order preserved) and returns the vertex of each input point.
-fn merge_duplicates(points: &mut Vec<DVec3>) -> Vec<u32> {
+/// order preserved) and returns the vertex of each input point, and a spent scratch buffer
+/// for the caller to drop when its other temporaries are gone.
+fn merge_duplicates(points: &mut Vec<DVec3>) -> (Vec<u32>, Vec<u32>) {
     use rayon::prelude::*;
     let n = points.len();
     let mut sorted: Vec<u32> = (0..n as u32).collect();
@@ -99,7 +152,6 @@ fn merge_duplicates(points: &mut Vec<DVec3>) -> Vec<u32> {
         }
         vertex_of_input[i] = sorted[run_start];
     }
-    drop(sorted);
     // Then: representatives numbered in input order, duplicates pointed at them.
     let mut next = 0u32;
     for i in 0..n {
@@ -113,7 +165,7 @@ fn merge_duplicates(points: &mut Vec<DVec3>) -> Vec<u32> {
         }
     }
     points.truncate(next as usize);
-    vertex_of_input
+    (vertex_of_input, sorted)
 }
 
 /// A per-axis translation under which every coordinate difference `x - shift` is exact
@@ -142,7 +194,7 @@ fn exact_shift(points: &[DVec3]) -> DVec3 {
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(16))]
 struct Cell {
-    /// Vertex ids; [`INF`] in ghosts; `[DEAD, ..]` for free slots.
+    /// Vertex ids; ghosts have [`INF`] last; `[DEAD, ..]` for free slots.
     v: [u32; 4],
     /// `t2 * 4 + j` across the face opposite vertex `i`.
     n: [u32; 4],
@@ -151,6 +203,12 @@ struct Cell {
 /// Construction state: flat arrays of tetrahedra and reused buffers.
 struct Builder<'a> {
     pts: &'a [DVec3],
+    /// The points as integers on one binary grid, when they share one (lattices, UTM
+    /// well data): exact predicates then skip the per-call float-to-integer conversion.
+    grid: Option<Grid>,
+    /// With a grid (where co-spherical ties are common): the lexicographic rank of each
+    /// vertex, so the symbolic perturbation compares integers. Empty otherwise.
+    lex_rank: Vec<u32>,
     /// The tetrahedra, vertices and neighbour links side by side.
     cells: Vec<Cell>,
     free: Vec<u32>,
@@ -194,10 +252,14 @@ impl<'a> Builder<'a> {
         let estimate = pts.len().saturating_mul(7) + 64;
         let mut b = Builder {
             pts,
+            grid: None,
+            lex_rank: Vec::new(),
             cells: Vec::with_capacity(estimate),
             free: Vec::new(),
-            in_cavity: Vec::new(),
-            tested: Vec::new(),
+            // Sized once for the estimate (zeroed pages are not resident until written):
+            // growing them step by step would leave the outgrown copies resident.
+            in_cavity: vec![0; estimate.div_ceil(64)],
+            tested: vec![0; estimate.div_ceil(64)],
             cavity: Vec::new(),
             tested_list: Vec::new(),
             pending: Vec::new(),
@@ -206,6 +268,10 @@ impl<'a> Builder<'a> {
             last: 0,
             rng: 0x2545_F491_4F6C_DD1D,
         };
+        b.grid = Grid::new(pts);
+        if b.grid.is_some() {
+            b.lex_rank = lex_ranks(pts);
+        }
         b.start(first);
         let total = pts.len();
         for v in 0..total as u32 {
@@ -228,6 +294,76 @@ impl<'a> Builder<'a> {
     #[inline]
     fn p(&self, v: u32) -> DVec3 {
         self.pts[v as usize]
+    }
+
+    /// [`predicates::orient`] of four vertices.
+    #[inline]
+    fn orient(&self, a: u32, b: u32, c: u32, d: u32) -> Sign {
+        if let Some(g) = &self.grid
+            && g.orient_is_cheap()
+        {
+            let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
+            return Sign::of(f64::from(g.orient(pa, pb, pc, pd)));
+        }
+        let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
+        if let Some(s) = predicates::orient_filter(pa, pb, pc, pd) {
+            return s;
+        }
+        match &self.grid {
+            Some(g) => Sign::of(f64::from(g.orient(pa, pb, pc, pd))),
+            None => predicates::orient_exact(pa, pb, pc, pd),
+        }
+    }
+
+    /// [`predicates::insphere`] of five vertices.
+    #[inline]
+    fn insphere(&self, [a, b, c, d]: [u32; 4], e: u32) -> Sign {
+        let (pa, pb, pc, pd, pe) = (self.p(a), self.p(b), self.p(c), self.p(d), self.p(e));
+        if let Some(s) = predicates::insphere_filter(pa, pb, pc, pd, pe) {
+            return s;
+        }
+        match &self.grid {
+            Some(g) => Sign::of(f64::from(g.insphere(pa, pb, pc, pd, pe))),
+            None => predicates::insphere_exact(pa, pb, pc, pd, pe),
+        }
+    }
+
+    /// [`predicates::in_sphere_perturbed`] of the positive tetrahedron `t` and vertex `q`.
+    fn in_sphere_perturbed(&self, t: [u32; 4], q: u32) -> bool {
+        match self.insphere(t, q) {
+            Sign::Positive => return true,
+            Sign::Negative => return false,
+            Sign::Zero => {}
+        }
+        let ids = [t[0], t[1], t[2], t[3], q];
+        let greater = |i: usize, k: usize| {
+            if self.lex_rank.is_empty() {
+                predicates::lex_cmp(self.p(ids[i]), self.p(ids[k])) == Ordering::Greater
+            } else {
+                self.lex_rank[ids[i] as usize] > self.lex_rank[ids[k] as usize]
+            }
+        };
+        let mut done = [false; 5];
+        for _ in 0..5 {
+            let mut k = 5;
+            for (i, &is_done) in done.iter().enumerate() {
+                if !is_done && (k == 5 || greater(i, k)) {
+                    k = i;
+                }
+            }
+            done[k] = true;
+            if k == 4 {
+                return false;
+            }
+            let mut r = t;
+            r[k] = q;
+            match self.orient(r[0], r[1], r[2], r[3]) {
+                Sign::Positive => return true,
+                Sign::Negative => return false,
+                Sign::Zero => {}
+            }
+        }
+        false
     }
 
     #[inline]
@@ -258,12 +394,11 @@ impl<'a> Builder<'a> {
 
     /// The first tetrahedron and its four ghosts.
     fn start(&mut self, [a, b, c, d]: [u32; 4]) {
-        let (a, b) =
-            if predicates::orient(self.p(a), self.p(b), self.p(c), self.p(d)) == Sign::Positive {
-                (a, b)
-            } else {
-                (b, a)
-            };
+        let (a, b) = if self.orient(a, b, c, d) == Sign::Positive {
+            (a, b)
+        } else {
+            (b, a)
+        };
         let finite = [a, b, c, d];
         let t0 = self.alloc();
         self.cells[t0 as usize].v = finite;
@@ -273,6 +408,12 @@ impl<'a> Builder<'a> {
             tv[f] = INF;
             // Swapping two other vertices puts the infinite vertex outside the face.
             tv.swap((f + 1) % 4, (f + 2) % 4);
+            // Ghosts keep the infinite vertex last (two swaps keep the orientation).
+            if f != 3 {
+                tv.swap(f, 3);
+                let others: Vec<usize> = (0..3).filter(|&i| i != f).collect();
+                tv.swap(others[0], others[1]);
+            }
             self.cells[g as usize].v = tv;
         }
         // Match the 20 faces pairwise.
@@ -302,65 +443,63 @@ impl<'a> Builder<'a> {
         self.last = t0;
     }
 
-    /// Does `q` conflict with tetrahedron `t` (inside its perturbed circumsphere, or for a
-    /// ghost, strictly beyond its hull face or on it inside the face's circumcircle)?
-    fn conflict(&self, t: u32, q: DVec3) -> bool {
+    /// Does vertex `v` conflict with tetrahedron `t` (inside its perturbed circumsphere,
+    /// or for a ghost, strictly beyond its hull face or on it inside the face's
+    /// circumcircle)?
+    #[inline]
+    fn conflict(&self, t: u32, v: u32) -> bool {
         let tv = self.cells[t as usize].v;
-        if let Some(k) = tv.iter().position(|&v| v == INF) {
-            let mut r = [q; 4];
-            for (i, slot) in r.iter_mut().enumerate() {
-                if i != k {
-                    *slot = self.p(tv[i]);
-                }
-            }
-            match predicates::orient(r[0], r[1], r[2], r[3]) {
+        if tv[3] == INF {
+            match self.orient(tv[0], tv[1], tv[2], v) {
                 Sign::Positive => true,
                 Sign::Negative => false,
                 Sign::Zero => {
-                    let face = [r[(k + 1) % 4], r[(k + 2) % 4], r[(k + 3) % 4]];
-                    predicates::in_circle_coplanar_perturbed(face[0], face[1], face[2], q)
+                    let [a, b, c] = [tv[0], tv[1], tv[2]].map(|u| self.p(u));
+                    predicates::in_circle_coplanar_perturbed(a, b, c, self.p(v))
                 }
             }
         } else {
-            predicates::in_sphere_perturbed(tv.map(|v| self.p(v)), q)
+            self.in_sphere_perturbed(tv, v)
         }
     }
 
-    /// Visibility walk from the last created tetrahedron to one in conflict with `q`: a
-    /// finite tetrahedron containing `q`, or a ghost whose hull face `q` is strictly beyond.
-    fn locate(&mut self, q: DVec3) -> u32 {
+    /// Visibility walk from the last created tetrahedron to one in conflict with vertex
+    /// `q`: a finite tetrahedron containing `q`, or a ghost whose hull face `q` is strictly
+    /// beyond. The face the walk came through is not tested again.
+    fn locate(&mut self, q: u32) -> u32 {
         let mut t = self.last;
-        if let Some(k) = self.cells[t as usize].v.iter().position(|&v| v == INF) {
-            t = self.cells[t as usize].n[k] >> 2;
+        if self.cells[t as usize].v[3] == INF {
+            t = self.cells[t as usize].n[3] >> 2;
         }
-        loop {
-            let tv = self.cells[t as usize].v;
-            if tv.contains(&INF) {
+        let mut from = 4;
+        'walk: loop {
+            let cell = self.cells[t as usize];
+            if cell.v[3] == INF {
                 return t;
             }
-            let p = tv.map(|v| self.p(v));
             let start = self.next_random();
-            let mut next = None;
             for s in 0..4u32 {
                 let f = ((start + s) & 3) as usize;
-                let mut r = p;
+                if f == from {
+                    continue;
+                }
+                let mut r = cell.v;
                 r[f] = q;
-                if predicates::orient(r[0], r[1], r[2], r[3]) == Sign::Negative {
-                    next = Some(self.cells[t as usize].n[f] >> 2);
-                    break;
+                if self.orient(r[0], r[1], r[2], r[3]) == Sign::Negative {
+                    let link = cell.n[f];
+                    t = link >> 2;
+                    from = (link & 3) as usize;
+                    continue 'walk;
                 }
             }
-            match next {
-                Some(n) => t = n,
-                None => return t,
-            }
+            return t;
         }
     }
 
-    /// Inserts vertex `v`: grows the conflict cavity breadth-first and stars it from `v`.
+    /// Inserts vertex `v`: grows the conflict cavity breadth-first and stars it from `v`,
+    /// writing the new tetrahedra over the cavity's slots first.
     fn insert(&mut self, v: u32) {
-        let q = self.p(v);
-        let t0 = self.locate(q);
+        let t0 = self.locate(v);
         self.cavity.clear();
         self.tested_list.clear();
         self.pending.clear();
@@ -370,14 +509,15 @@ impl<'a> Builder<'a> {
         while i < self.cavity.len() {
             let t = self.cavity[i];
             i += 1;
+            let cell = self.cells[t as usize];
             for f in 0..4 {
-                let link = self.cells[t as usize].n[f];
+                let link = cell.n[f];
                 let t2 = link >> 2;
                 if bit(&self.in_cavity, t2) {
                     continue;
                 }
                 if !bit(&self.tested, t2) {
-                    if self.conflict(t2, q) {
+                    if self.conflict(t2, v) {
                         set_bit(&mut self.in_cavity, t2, true);
                         self.cavity.push(t2);
                         continue;
@@ -385,7 +525,7 @@ impl<'a> Builder<'a> {
                     set_bit(&mut self.tested, t2, true);
                     self.tested_list.push(t2);
                 }
-                let mut tv = self.cells[t as usize].v;
+                let mut tv = cell.v;
                 tv[f] = v;
                 self.pending.push((tv, f as u32, link));
             }
@@ -394,33 +534,50 @@ impl<'a> Builder<'a> {
             set_bit(&mut self.tested, self.tested_list[k], false);
         }
         for k in 0..self.cavity.len() {
-            let t = self.cavity[k];
-            set_bit(&mut self.in_cavity, t, false);
-            self.cells[t as usize].v[0] = DEAD;
-            self.free.push(t);
+            set_bit(&mut self.in_cavity, self.cavity[k], false);
         }
         self.new_tets.clear();
         for k in 0..self.pending.len() {
             let (tv, f, link) = self.pending[k];
-            let s = self.alloc();
-            self.cells[s as usize].v = tv;
+            let s = if k < self.cavity.len() {
+                self.cavity[k]
+            } else {
+                self.alloc()
+            };
+            self.cells[s as usize] = Cell {
+                v: tv,
+                n: [NO_NEIGHBOUR; 4],
+            };
             self.cells[s as usize].n[f as usize] = link;
             self.cells[(link >> 2) as usize].n[(link & 3) as usize] = s * 4 + f;
             self.new_tets.push(s);
+        }
+        for k in self.pending.len()..self.cavity.len() {
+            let t = self.cavity[k];
+            self.cells[t as usize].v[0] = DEAD;
+            self.free.push(t);
         }
         self.link_new_tets();
         self.last = self
             .new_tets
             .iter()
             .copied()
-            .find(|&s| !self.cells[s as usize].v.contains(&INF))
+            .find(|&s| self.cells[s as usize].v[3] != INF)
             .unwrap_or(self.new_tets[0]);
     }
 
     /// Links the new tetrahedra to each other: two of them share a face through the new
     /// vertex exactly when they share the cavity-boundary edge opposite it.
     fn link_new_tets(&mut self) {
-        let size = (self.new_tets.len() * 6).next_power_of_two().max(16);
+        /// For the new vertex at position `f`: the three faces through it (opposite `j`)
+        /// and the two positions of the edge each is keyed by.
+        const FACES_THROUGH: [[(u32, usize, usize); 3]; 4] = [
+            [(1, 2, 3), (2, 1, 3), (3, 1, 2)],
+            [(0, 2, 3), (2, 0, 3), (3, 0, 2)],
+            [(0, 1, 3), (1, 0, 3), (3, 0, 1)],
+            [(0, 1, 2), (1, 0, 2), (2, 0, 1)],
+        ];
+        let size = (self.new_tets.len() * 4).next_power_of_two().max(16);
         if self.edge_table.len() < size {
             self.edge_table.resize(size, (EMPTY, 0));
         }
@@ -428,21 +585,10 @@ impl<'a> Builder<'a> {
         self.edge_table[..size].fill((EMPTY, 0));
         for k in 0..self.new_tets.len() {
             let s = self.new_tets[k];
-            let (_, apex, _) = self.pending[k];
-            let tv = self.cells[s as usize].v;
-            for j in 0..4u32 {
-                if j == apex {
-                    continue;
-                }
-                let mut e = [0u32; 2];
-                let mut n = 0;
-                for (pos, &vert) in tv.iter().enumerate() {
-                    if pos as u32 != apex && pos as u32 != j {
-                        e[n] = vert;
-                        n += 1;
-                    }
-                }
-                let key = (u64::from(e[0].min(e[1])) << 32) | u64::from(e[0].max(e[1]));
+            let (tv, apex, _) = self.pending[k];
+            for &(j, a, b) in &FACES_THROUGH[apex as usize] {
+                let (x, y) = (tv[a], tv[b]);
+                let key = (u64::from(x.min(y)) << 32) | u64::from(x.max(y));
                 let mut h = (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40) as usize & mask;
                 loop {
                     let (slot_key, slot_link) = self.edge_table[h];
@@ -471,8 +617,8 @@ impl<'a> Builder<'a> {
             if cells[t].v[0] == DEAD {
                 continue;
             }
-            if let Some(k) = cells[t].v.iter().position(|&v| v == INF) {
-                let link = cells[t].n[k];
+            if cells[t].v[3] == INF {
+                let link = cells[t].n[3];
                 cells[(link >> 2) as usize].n[(link & 3) as usize] = NO_NEIGHBOUR;
                 cells[t].v[0] = DEAD;
             }
@@ -518,6 +664,18 @@ impl<'a> Builder<'a> {
     }
 }
 
+/// The rank of each point in the lexicographic order of `(x, y, z)` (distinct points).
+fn lex_ranks(pts: &[DVec3]) -> Vec<u32> {
+    use rayon::prelude::*;
+    let mut sorted: Vec<u32> = (0..pts.len() as u32).collect();
+    sorted.par_sort_unstable_by(|&i, &j| predicates::lex_cmp(pts[i as usize], pts[j as usize]));
+    let mut rank = vec![0u32; pts.len()];
+    for (k, &v) in sorted.iter().enumerate() {
+        rank[v as usize] = k as u32;
+    }
+    rank
+}
+
 /// Four affinely independent vertices, the first ones in insertion order (vertex ids), so
 /// the first tetrahedron comes from the first BRIO round.
 fn initial_simplex(pts: &[DVec3]) -> Result<[u32; 4], TetError> {
@@ -531,4 +689,37 @@ fn initial_simplex(pts: &[DVec3]) -> Result<[u32; 4], TetError> {
         .find(|&d| predicates::orient(p(a), p(b), p(c), p(d)) != Sign::Zero)
         .ok_or(TetError::AllCoplanar)?;
     Ok([a, b, c, d])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn in_place_permutation_and_inverse_match_the_copying_versions() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        for n in [1usize, 2, 3, 64, 65, 1000] {
+            // A random permutation (Fisher-Yates with xorshift).
+            let mut order: Vec<u32> = (0..n as u32).collect();
+            for i in (1..n).rev() {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                order.swap(i, (state % (i as u64 + 1)) as usize);
+            }
+            let items: Vec<u64> = (0..n as u64).map(|i| i * 7 + 3).collect();
+            let expected: Vec<u64> = order.iter().map(|&k| items[k as usize]).collect();
+            let mut inverse = vec![0u32; n];
+            for (k, &v) in order.iter().enumerate() {
+                inverse[v as usize] = k as u32;
+            }
+            let mut done = vec![0u64; n.div_ceil(64)];
+            let mut permuted = items.clone();
+            permute_in_place(&mut permuted, &order, &mut done);
+            assert_eq!(permuted, expected);
+            done.fill(0);
+            invert_in_place(&mut order, &mut done);
+            assert_eq!(order, inverse);
+        }
+    }
 }

@@ -37,24 +37,64 @@ impl I256 {
         }
     }
 
+    #[inline]
     fn add(self, o: I256) -> I256 {
-        let mut r = [0u64; 4];
-        let mut carry = false;
-        for (k, slot) in r.iter_mut().enumerate() {
-            let (s1, c1) = self.0[k].overflowing_add(o.0[k]);
-            let (s2, c2) = s1.overflowing_add(u64::from(carry));
-            *slot = s2;
-            carry = c1 || c2;
-        }
-        I256(r)
+        let lo = u128::from(self.0[0]) | u128::from(self.0[1]) << 64;
+        let hi = u128::from(self.0[2]) | u128::from(self.0[3]) << 64;
+        let olo = u128::from(o.0[0]) | u128::from(o.0[1]) << 64;
+        let ohi = u128::from(o.0[2]) | u128::from(o.0[3]) << 64;
+        let (l, carry) = lo.overflowing_add(olo);
+        let h = hi.wrapping_add(ohi).wrapping_add(u128::from(carry));
+        I256([l as u64, (l >> 64) as u64, h as u64, (h >> 64) as u64])
     }
 
+    #[inline]
     fn neg(self) -> I256 {
         I256(self.0.map(|l| !l)).add(I256([1, 0, 0, 0]))
     }
 
+    #[inline]
     fn sub(self, o: I256) -> I256 {
-        self.add(o.neg())
+        let lo = u128::from(self.0[0]) | u128::from(self.0[1]) << 64;
+        let hi = u128::from(self.0[2]) | u128::from(self.0[3]) << 64;
+        let olo = u128::from(o.0[0]) | u128::from(o.0[1]) << 64;
+        let ohi = u128::from(o.0[2]) | u128::from(o.0[3]) << 64;
+        let (l, borrow) = lo.overflowing_sub(olo);
+        let h = hi.wrapping_sub(ohi).wrapping_sub(u128::from(borrow));
+        I256([l as u64, (l >> 64) as u64, h as u64, (h >> 64) as u64])
+    }
+
+    /// `a * b` for `|a| < 2^63`, `|b| < 2^127` (two limb products).
+    #[inline]
+    fn mul_small(a: i64, b: i128) -> I256 {
+        let ma = u128::from(a.unsigned_abs());
+        let mb = b.unsigned_abs();
+        let lo = ma * u128::from(mb as u64);
+        let hi = ma * (mb >> 64);
+        let mid = (lo >> 64) + u128::from(hi as u64);
+        let r = I256([lo as u64, mid as u64, ((mid >> 64) + (hi >> 64)) as u64, 0]);
+        if (a < 0) != (b < 0) { r.neg() } else { r }
+    }
+
+    /// `self * l` for `|self| < 2^192`, `l < 2^128`, when the product fits in 255 bits.
+    #[inline]
+    fn mul_lift(self, l: u128) -> I256 {
+        let negative = self.is_negative();
+        let a = if negative { self.neg() } else { self };
+        let (l0, l1) = (u128::from(l as u64), l >> 64);
+        let p0 = u128::from(a.0[0]) * l0;
+        let p1 = u128::from(a.0[1]) * l0;
+        let p2 = u128::from(a.0[2]) * l0;
+        let q0 = u128::from(a.0[0]) * l1;
+        let q1 = u128::from(a.0[1]) * l1;
+        let q2 = u128::from(a.0[2]) * l1;
+        // Column sums of 64-bit digits with carries.
+        let c1 = (p0 >> 64) + u128::from(p1 as u64) + u128::from(q0 as u64);
+        let c2 =
+            (c1 >> 64) + (p1 >> 64) + u128::from(p2 as u64) + (q0 >> 64) + u128::from(q1 as u64);
+        let c3 = (c2 >> 64) + (p2 >> 64) + (q1 >> 64) + u128::from(q2 as u64);
+        let r = I256([p0 as u64, c1 as u64, c2 as u64, c3 as u64]);
+        if negative { r.neg() } else { r }
     }
 
     /// `self * b`, exact when the true product fits in 255 bits (callers guarantee it).
@@ -169,20 +209,24 @@ fn max_abs<const N: usize>(v: &[[i128; 3]; N]) -> i128 {
 pub fn orient_sign(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<i32> {
     let g = to_grid([a, b, c, d])?;
     let v = diffs(&g, 0)?;
-    let (b, c, d) = (v[1], v[2], v[3]);
+    Some(orient_of_diffs([v[1], v[2], v[3]]))
+}
+
+/// Sign of `b . (c x d)` for differences below 2^49.
+fn orient_of_diffs([b, c, d]: [[i128; 3]; 3]) -> i32 {
     // 2x2 minors < 2^99, so i128 is exact; the 3x3 combination needs 256 bits.
     let m0 = c[1] * d[2] - c[2] * d[1];
     let m1 = c[0] * d[2] - c[2] * d[0];
     let m2 = c[0] * d[1] - c[1] * d[0];
-    if max_abs(&v) < 1 << 40 {
+    if max_abs(&[b, c, d]) < 1 << 40 {
         // |det| < 6 * 2^120: plain i128.
-        return Some((b[0] * m0 - b[1] * m1 + b[2] * m2).signum() as i32);
+        return (b[0] * m0 - b[1] * m1 + b[2] * m2).signum() as i32;
     }
     let det = I256::from_i128(m0)
         .mul_i128(b[0])
         .sub(I256::from_i128(m1).mul_i128(b[1]))
         .add(I256::from_i128(m2).mul_i128(b[2]));
-    Some(det.signum())
+    det.signum()
 }
 
 /// Exact sign of the in-sphere determinant (the `predicates::insphere` convention:
@@ -191,47 +235,191 @@ pub fn insphere_sign(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Option
     let g = to_grid([a, b, c, d, e])?;
     let v = diffs(&g, 4)?;
     let [ad, bd, cd, dd, _] = v;
+    if max_abs(&v) < 1 << 24 {
+        return Some(insphere_small([ad, bd, cd, dd]));
+    }
+    Some(insphere_wide([ad, bd, cd, dd]))
+}
+
+/// The in-sphere sign from the differences `p - e`, all below 2^24 (|det| < 2^127).
+#[inline]
+fn insphere_small([ad, bd, cd, dd]: [[i128; 3]; 4]) -> i32 {
     let ab = ad[0] * bd[1] - bd[0] * ad[1];
     let bc = bd[0] * cd[1] - cd[0] * bd[1];
     let cdm = cd[0] * dd[1] - dd[0] * cd[1];
     let da = dd[0] * ad[1] - ad[0] * dd[1];
     let ac = ad[0] * cd[1] - cd[0] * ad[1];
     let bdm = bd[0] * dd[1] - dd[0] * bd[1];
-    if max_abs(&v) < 1 << 24 {
-        // |det| < 2^(5 * 24 + 7) = 2^127: plain i128.
-        let abc = ad[2] * bc - bd[2] * ac + cd[2] * ab;
-        let bcd = bd[2] * cdm - cd[2] * bdm + dd[2] * bc;
-        let cda = cd[2] * da + dd[2] * ac + ad[2] * cdm;
-        let dab = dd[2] * ab + ad[2] * bdm + bd[2] * da;
-        let lift = |p: [i128; 3]| p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
-        let det = (lift(dd) * abc - lift(cd) * dab) + (lift(bd) * cda - lift(ad) * bcd);
-        return Some(-det.signum() as i32);
-    }
-    let w = |x: i128| I256::from_i128(x);
-    let abc = w(bc)
-        .mul_i128(ad[2])
-        .sub(w(ac).mul_i128(bd[2]))
-        .add(w(ab).mul_i128(cd[2]));
-    let bcd = w(cdm)
-        .mul_i128(bd[2])
-        .sub(w(bdm).mul_i128(cd[2]))
-        .add(w(bc).mul_i128(dd[2]));
-    let cda = w(da)
-        .mul_i128(cd[2])
-        .add(w(ac).mul_i128(dd[2]))
-        .add(w(cdm).mul_i128(ad[2]));
-    let dab = w(ab)
-        .mul_i128(dd[2])
-        .add(w(bdm).mul_i128(ad[2]))
-        .add(w(da).mul_i128(bd[2]));
+    let abc = ad[2] * bc - bd[2] * ac + cd[2] * ab;
+    let bcd = bd[2] * cdm - cd[2] * bdm + dd[2] * bc;
+    let cda = cd[2] * da + dd[2] * ac + ad[2] * cdm;
+    let dab = dd[2] * ab + ad[2] * bdm + bd[2] * da;
     let lift = |p: [i128; 3]| p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
-    let det = dab
-        .mul_i128(-lift(cd))
-        .add(abc.mul_i128(lift(dd)))
-        .add(cda.mul_i128(lift(bd)))
-        .sub(bcd.mul_i128(lift(ad)));
+    let det = (lift(dd) * abc - lift(cd) * dab) + (lift(bd) * cda - lift(ad) * bcd);
     // Shewchuk's sign convention is the opposite of ours (see `predicates`).
-    Some(-det.signum())
+    -det.signum() as i32
+}
+
+/// The in-sphere sign from the differences `p - e`, all below 2^49 (|det| < 2^252), in
+/// straight-line 256-bit arithmetic.
+fn insphere_wide([ad, bd, cd, dd]: [[i128; 3]; 4]) -> i32 {
+    let ab = ad[0] * bd[1] - bd[0] * ad[1];
+    let bc = bd[0] * cd[1] - cd[0] * bd[1];
+    let cdm = cd[0] * dd[1] - dd[0] * cd[1];
+    let da = dd[0] * ad[1] - ad[0] * dd[1];
+    let ac = ad[0] * cd[1] - cd[0] * ad[1];
+    let bdm = bd[0] * dd[1] - dd[0] * bd[1];
+    // 3x3 minors: |z| < 2^49 times |2x2| < 2^99: below 2^150 each.
+    let m = |z: i128, x: i128| I256::mul_small(z as i64, x);
+    let abc = m(ad[2], bc).sub(m(bd[2], ac)).add(m(cd[2], ab));
+    let bcd = m(bd[2], cdm).sub(m(cd[2], bdm)).add(m(dd[2], bc));
+    let cda = m(cd[2], da).add(m(dd[2], ac)).add(m(ad[2], cdm));
+    let dab = m(dd[2], ab).add(m(ad[2], bdm)).add(m(bd[2], da));
+    // Lifts are non-negative and below 2^100.
+    let lift = |p: [i128; 3]| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) as u128;
+    let det = abc
+        .mul_lift(lift(dd))
+        .sub(dab.mul_lift(lift(cd)))
+        .add(cda.mul_lift(lift(bd)))
+        .sub(bcd.mul_lift(lift(ad)));
+    -det.signum()
+}
+
+/// The common binary grid of a point set (every coordinate is an integer times `2^unit`),
+/// found once, so exact predicates on the set convert a coordinate to its integer with one
+/// exact multiplication by a power of two instead of taking the float apart.
+///
+/// Invariant: every coordinate of the set is a multiple of `2^unit` below `2^(unit + 47)` in
+/// magnitude, so integers are below 2^47, differences below 2^48, and the determinants fit
+/// the widths chosen by `orient_small` / `insphere_small`. Only points of that set may be
+/// passed to its methods.
+#[derive(Debug)]
+pub struct Grid {
+    /// `2^-unit`: coordinate times `scale` is its exact integer.
+    scale: f64,
+    /// Per axis, `2^-lo[k]` for the axis' own lowest set bit: `orient` scales each axis
+    /// apart (its determinant only changes by a positive factor).
+    orient_scale: [f64; 3],
+    /// `orient`'s determinant after the per-axis scaling always fits in i128.
+    orient_small: bool,
+    /// ... and even in i64: then it costs no more than the float filter.
+    orient_tiny: bool,
+    /// `insphere`'s determinant always fits in i128.
+    insphere_small: bool,
+}
+
+/// Largest coordinate magnitude of a [`Grid`], in bits of grid units.
+const GRID_BITS: i32 = 47;
+
+/// `2^k` for `-1022 <= k <= 1023`.
+fn pow2(k: i32) -> Option<f64> {
+    (-1022..=1023)
+        .contains(&k)
+        .then(|| f64::from_bits(((k + 1023) as u64) << 52))
+}
+
+impl Grid {
+    /// The grid of `points`, or `None` when their coordinates span more than
+    /// [`GRID_BITS`] bits of one binary grid (general floating-point data).
+    pub fn new(points: &[DVec3]) -> Option<Grid> {
+        let mut lo = [i32::MAX; 3];
+        let mut hi = [i32::MIN; 3];
+        for chunk in points.chunks(4096) {
+            for p in chunk {
+                for k in 0..3 {
+                    if p[k] != 0.0 {
+                        let (l, h) = bit_span(p[k]);
+                        lo[k] = lo[k].min(l);
+                        hi[k] = hi[k].max(h);
+                    }
+                }
+            }
+            let unit = *lo.iter().min().unwrap_or(&0);
+            let top = *hi.iter().max().unwrap_or(&0);
+            if unit != i32::MAX && top - unit > GRID_BITS {
+                return None;
+            }
+        }
+        let unit = *lo.iter().min().unwrap_or(&0);
+        if unit == i32::MAX {
+            return None;
+        }
+        let mut orient_scale = [1.0; 3];
+        // Bits of the differences per axis after the per-axis scaling.
+        let mut orient_bits = 3;
+        let mut diff_bits = 0;
+        for k in 0..3 {
+            if lo[k] != i32::MAX {
+                orient_scale[k] = pow2(-lo[k])?;
+                orient_bits += hi[k] - lo[k] + 1;
+                diff_bits = diff_bits.max(hi[k] - unit + 1);
+            }
+        }
+        Some(Grid {
+            scale: pow2(-unit)?,
+            orient_scale,
+            orient_small: orient_bits <= 126,
+            orient_tiny: orient_bits <= 62,
+            insphere_small: 5 * diff_bits + 7 <= 126,
+        })
+    }
+
+    /// Is the exact `orient` as cheap as its float filter (all in i64)?
+    #[inline]
+    pub fn orient_is_cheap(&self) -> bool {
+        self.orient_tiny
+    }
+
+    /// Exact sign of `orient` (module conventions of `predicates`) of four points of the set.
+    #[inline]
+    pub fn orient(&self, a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> i32 {
+        let s = self.orient_scale;
+        // Exact: a multiple of 2^lo[k] times 2^-lo[k] is an integer below 2^47.
+        let p = |q: DVec3| {
+            [
+                (q.x * s[0]) as i64,
+                (q.y * s[1]) as i64,
+                (q.z * s[2]) as i64,
+            ]
+        };
+        let (a, b, c, d) = (p(a), p(b), p(c), p(d));
+        if self.orient_tiny {
+            let diff = |q: [i64; 3]| [q[0] - a[0], q[1] - a[1], q[2] - a[2]];
+            let (b, c, d) = (diff(b), diff(c), diff(d));
+            let m0 = c[1] * d[2] - c[2] * d[1];
+            let m1 = c[0] * d[2] - c[2] * d[0];
+            let m2 = c[0] * d[1] - c[1] * d[0];
+            return (b[0] * m0 - b[1] * m1 + b[2] * m2).signum() as i32;
+        }
+        let diff = |q: [i64; 3]| [0, 1, 2].map(|k| i128::from(q[k] - a[k]));
+        let (b, c, d) = (diff(b), diff(c), diff(d));
+        if self.orient_small {
+            let m0 = c[1] * d[2] - c[2] * d[1];
+            let m1 = c[0] * d[2] - c[2] * d[0];
+            let m2 = c[0] * d[1] - c[1] * d[0];
+            return (b[0] * m0 - b[1] * m1 + b[2] * m2).signum() as i32;
+        }
+        orient_of_diffs([b, c, d])
+    }
+
+    /// Exact sign of `insphere` (module conventions of `predicates`) of five points of the
+    /// set.
+    #[inline]
+    pub fn insphere(&self, a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> i32 {
+        let s = self.scale;
+        let g = |q: DVec3| [(q.x * s) as i64, (q.y * s) as i64, (q.z * s) as i64];
+        let ge = g(e);
+        let diff = |q: DVec3| {
+            let q = g(q);
+            [0, 1, 2].map(|k| i128::from(q[k] - ge[k]))
+        };
+        let v = [diff(a), diff(b), diff(c), diff(d)];
+        if self.insphere_small {
+            insphere_small(v)
+        } else {
+            insphere_wide(v)
+        }
+    }
 }
 
 #[cfg(test)]
@@ -271,5 +459,85 @@ mod tests {
         let g = to_grid([DVec3::new(0.5, -3.0, 1024.25), DVec3::ZERO]).unwrap();
         assert_eq!(g[0], [2, -12, 4097]);
         assert!(to_grid([DVec3::new(1e300, 1e-300, 0.0)]).is_none());
+    }
+
+    fn xorshift(state: &mut u64) -> u64 {
+        *state ^= *state << 13;
+        *state ^= *state >> 7;
+        *state ^= *state << 17;
+        *state
+    }
+
+    fn robust_orient(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> i32 {
+        crate::tet::predicates::orient_robust(a, b, c, d) as i32 - 1
+    }
+
+    fn robust_insphere(p: [DVec3; 5]) -> i32 {
+        crate::tet::predicates::insphere_robust(p[0], p[1], p[2], p[3], p[4]) as i32 - 1
+    }
+
+    /// Grid predicates against `robust` on the point sets themselves: jittered UTM
+    /// lattices (ties, 256-bit insphere, i128 orient), small integer lattices (i64
+    /// orient, i128 insphere) and wide random grids (256-bit orient).
+    #[test]
+    fn grid_predicates_match_robust_on_every_width() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let utm: Vec<DVec3> = (0..400)
+            .map(|k| {
+                let well = (k / 20) as f64;
+                let jitter = (well * 0.618_033_988_749).fract() * 3.1;
+                // Jittered collars at UTM magnitude, then the exact local shift.
+                let x = 500_000.0 + (well % 5.0) * 50.0 + jitter;
+                let y = 6_500_000.0 + (well / 5.0).floor() * 50.0 - jitter;
+                DVec3::new(x - 500_100.0, y - 6_500_075.0, (k % 20) as f64 - 9.5)
+            })
+            .collect();
+        let small: Vec<DVec3> = (0..400)
+            .map(|k| DVec3::new((k % 7) as f64, ((k / 7) % 7) as f64, (k / 49) as f64 * 0.5))
+            .collect();
+        let wide: Vec<DVec3> = (0..400)
+            .map(|_| {
+                let mut c = || (xorshift(&mut state) >> 18) as f64 - (1u64 << 45) as f64;
+                DVec3::new(c(), c(), c())
+            })
+            .collect();
+        for (name, pts) in [("utm", utm), ("small", small), ("wide", wide)] {
+            let grid = Grid::new(&pts).expect("on a binary grid");
+            let mut zeros = 0;
+            for _ in 0..20_000 {
+                let mut pick = || (xorshift(&mut state) % pts.len() as u64) as u32;
+                let ids = [pick(), pick(), pick(), pick(), pick()];
+                let p = ids.map(|v| pts[v as usize]);
+                let o = grid.orient(p[0], p[1], p[2], p[3]);
+                assert_eq!(o, robust_orient(p[0], p[1], p[2], p[3]), "{name} orient");
+                let s = grid.insphere(p[0], p[1], p[2], p[3], p[4]);
+                assert_eq!(s, robust_insphere(p), "{name} insphere");
+                zeros += usize::from(s == 0 && o != 0);
+            }
+            if name != "wide" {
+                assert!(zeros > 50, "{name}: the sample must hit co-spherical ties");
+            }
+        }
+        // Coordinates spanning too many bits have no grid.
+        assert!(Grid::new(&[DVec3::new(1e20, 1e-20, 0.0)]).is_none());
+    }
+
+    #[test]
+    fn wide_insphere_matches_the_generic_256_bit_path_near_its_limit() {
+        let mut state = 0x1234_5678_9abc_def1u64;
+        for _ in 0..20_000 {
+            let mut c = || ((xorshift(&mut state) >> 16) as i64 - (1i64 << 47)) as i128;
+            let v = [
+                [c(), c(), c()],
+                [c(), c(), c()],
+                [c(), c(), c()],
+                [c(), c(), c()],
+            ];
+            let p = |k: usize| DVec3::new(v[k][0] as f64, v[k][1] as f64, v[k][2] as f64);
+            assert_eq!(
+                insphere_wide(v),
+                robust_insphere([p(0), p(1), p(2), p(3), DVec3::ZERO])
+            );
+        }
     }
 }

@@ -36,7 +36,7 @@ pub enum Sign {
 }
 
 impl Sign {
-    fn of(value: f64) -> Sign {
+    pub(super) fn of(value: f64) -> Sign {
         if value > 0.0 {
             Sign::Positive
         } else if value < 0.0 {
@@ -64,6 +64,16 @@ fn filter_usable(lo: f64, hi: f64) -> bool {
 /// Exact sign of `(b-a) . ((c-a) x (d-a))` (see the module conventions).
 #[inline]
 pub fn orient(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Sign {
+    match orient_filter(a, b, c, d) {
+        Some(s) => s,
+        None => orient_exact(a, b, c, d),
+    }
+}
+
+/// The float filter of [`orient`]: the exact sign when the `f64` determinant's error bound
+/// proves it, else `None`.
+#[inline]
+pub fn orient_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<Sign> {
     let (bx, by, bz) = (b.x - a.x, b.y - a.y, b.z - a.z);
     let (cx, cy, cz) = (c.x - a.x, c.y - a.y, c.z - a.z);
     let (dx, dy, dz) = (d.x - a.x, d.y - a.y, d.z - a.z);
@@ -78,13 +88,13 @@ pub fn orient(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Sign {
     if filter_usable(lo, hi) {
         let eps = 1e-14 * mx * my * mz;
         if det > eps {
-            return Sign::Positive;
+            return Some(Sign::Positive);
         }
         if det < -eps {
-            return Sign::Negative;
+            return Some(Sign::Negative);
         }
     }
-    orient_exact(a, b, c, d)
+    None
 }
 
 /// [`orient`] without the filter: fixed-width integers when the coordinates share a
@@ -105,6 +115,16 @@ pub fn orient_robust(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Sign {
 /// circumsphere of the positive tetrahedron `abcd`, `Zero` when co-spherical.
 #[inline]
 pub fn insphere(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Sign {
+    match insphere_filter(a, b, c, d, e) {
+        Some(s) => s,
+        None => insphere_exact(a, b, c, d, e),
+    }
+}
+
+/// The float filter of [`insphere`]: the exact sign when the `f64` determinant's error
+/// bound proves it, else `None`.
+#[inline]
+pub fn insphere_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Option<Sign> {
     let (adx, ady, adz) = (a.x - e.x, a.y - e.y, a.z - e.z);
     let (bdx, bdy, bdz) = (b.x - e.x, b.y - e.y, b.z - e.z);
     let (cdx, cdy, cdz) = (c.x - e.x, c.y - e.y, c.z - e.z);
@@ -136,13 +156,13 @@ pub fn insphere(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Sign {
     if filter_usable(lo, hi) {
         let eps = 5e-13 * mx * my * mz * hi * hi;
         if det > eps {
-            return Sign::Positive;
+            return Some(Sign::Positive);
         }
         if det < -eps {
-            return Sign::Negative;
+            return Some(Sign::Negative);
         }
     }
-    insphere_exact(a, b, c, d, e)
+    None
 }
 
 /// [`insphere`] without the filter: fixed-width integers when the coordinates share a
