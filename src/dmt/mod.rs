@@ -155,9 +155,9 @@ pub enum DmtError {
 /// How the (non-planar) dual polygons are cut into triangles.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Triangulation {
-    /// By diagonals (no added vertex), the triangulation whose smallest angle is largest
-    /// (dynamic programming per polygon). The default, chosen by measurement (docs/dmt.md):
-    /// fewest slivers.
+    /// By diagonals, the triangulation whose smallest angle is largest (dynamic programming
+    /// per polygon), or the centroid star where that has the larger smallest angle. The
+    /// default, chosen by measurement (docs/dmt.md): fewest slivers.
     #[default]
     MaxMinAngle,
     /// A star around the polygon's centroid (one added vertex per polygon of 4 or more
@@ -360,8 +360,31 @@ fn triangulate(
             }
             PolygonKind::Dual if triangulation == Triangulation::MaxMinAngle => {
                 let pts: Vec<DVec3> = poly.iter().map(|&v| positions[v as usize]).collect();
-                for [a, b, c] in max_min_angle_triangulation(&pts).1 {
-                    triangles.push([poly[a], poly[b], poly[c]]);
+                let (best, diagonals) = max_min_angle_triangulation(&pts);
+                // The centroid star instead, where its smallest angle is larger (on grids,
+                // where polygons are near-regular, it often is).
+                let centre = pts.iter().sum::<DVec3>() / n as f64;
+                let normal = newell_normal(&pts);
+                let star = (0..n)
+                    .map(|i| {
+                        let (a, b) = (pts[i], pts[(i + 1) % n]);
+                        if (a - centre).cross(b - centre).dot(normal) > 0.0 {
+                            min_angle(centre, a, b)
+                        } else {
+                            -1.0
+                        }
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                if star > best {
+                    let c = positions.len() as u32;
+                    positions.push(centre);
+                    for i in 0..n {
+                        triangles.push([c, poly[i], poly[(i + 1) % n]]);
+                    }
+                } else {
+                    for [a, b, c] in diagonals {
+                        triangles.push([poly[a], poly[b], poly[c]]);
+                    }
                 }
             }
             PolygonKind::Dual if triangulation != Triangulation::Fan => {
@@ -412,6 +435,12 @@ fn min_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     angle(a, b, c).min(angle(b, c, a)).min(angle(c, a, b))
 }
 
+/// Newell's normal of a (non-planar) polygon: twice its vector area.
+fn newell_normal(pts: &[DVec3]) -> DVec3 {
+    let n = pts.len();
+    (0..n).fold(DVec3::ZERO, |acc, i| acc + pts[i].cross(pts[(i + 1) % n]))
+}
+
 /// The triangulation of the polygon `pts` (by diagonals, no added vertex) whose smallest
 /// triangle angle is largest among those with no triangle facing against the polygon's
 /// normal (dynamic programming over sub-polygons, O(n^3)); triangles as corner indices
@@ -420,7 +449,7 @@ fn max_min_angle_triangulation(pts: &[DVec3]) -> (f64, Vec<[usize; 3]>) {
     let n = pts.len();
     // Newell normal of the polygon: a triangle facing against it scores below every
     // triangle that does not, so folds are taken only where every triangulation folds.
-    let normal = (0..n).fold(DVec3::ZERO, |acc, i| acc + pts[i].cross(pts[(i + 1) % n]));
+    let normal = newell_normal(pts);
     let score = |a: DVec3, b: DVec3, c: DVec3| {
         if (b - a).cross(c - a).dot(normal) > 0.0 {
             min_angle(a, b, c)

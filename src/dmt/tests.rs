@@ -274,7 +274,7 @@ fn timing_on_a_large_grid() {
             &values,
             0.0,
             placement,
-            Triangulation::Star,
+            Triangulation::default(),
             &NoProgress,
         )
         .unwrap();
@@ -297,7 +297,7 @@ fn timing_measures() {
         &values,
         0.0,
         Placement::Ibc,
-        Triangulation::Star,
+        Triangulation::default(),
         &NoProgress,
     )
     .unwrap();
