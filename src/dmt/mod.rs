@@ -375,7 +375,10 @@ fn triangulate(
                         }
                     })
                     .fold(f64::INFINITY, f64::min);
-                if star > best {
+                // Where every diagonal triangulation folds or holds a degenerate triangle
+                // (collinear corners along a hole on the hull), the star, whose centre is
+                // off every corner line.
+                if star > best || best <= 0.0 {
                     let c = positions.len() as u32;
                     positions.push(centre);
                     for i in 0..n {
