@@ -369,7 +369,7 @@ fn triangulate(
                     .map(|i| {
                         let (a, b) = (pts[i], pts[(i + 1) % n]);
                         if (a - centre).cross(b - centre).dot(normal) > 0.0 {
-                            min_angle(centre, a, b)
+                            measure::min_angle_deg(centre, a, b)
                         } else {
                             -1.0
                         }
@@ -429,15 +429,6 @@ fn triangulate(
     (positions, triangles, polygon_of)
 }
 
-/// Smallest angle (radians) of triangle `abc`; 0 for a degenerate one.
-fn min_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
-    let angle = |p: DVec3, q: DVec3, r: DVec3| {
-        let (u, w) = (q - p, r - p);
-        u.cross(w).length().atan2(u.dot(w))
-    };
-    angle(a, b, c).min(angle(b, c, a)).min(angle(c, a, b))
-}
-
 /// Newell's normal of a (non-planar) polygon: twice its vector area.
 fn newell_normal(pts: &[DVec3]) -> DVec3 {
     let n = pts.len();
@@ -455,7 +446,7 @@ fn max_min_angle_triangulation(pts: &[DVec3]) -> (f64, Vec<[usize; 3]>) {
     let normal = newell_normal(pts);
     let score = |a: DVec3, b: DVec3, c: DVec3| {
         if (b - a).cross(c - a).dot(normal) > 0.0 {
-            min_angle(a, b, c)
+            measure::min_angle_deg(a, b, c)
         } else {
             -1.0
         }
