@@ -39,8 +39,9 @@ pub struct ContourRequest {
     /// A structured grid to contour instead of `samples` (which then only carries the
     /// unit and a fallback CRS): its cells are split into tetrahedra, no Delaunay.
     pub grid: Option<GridSource>,
-    /// Bodies with a smaller volume are left out of the output.
-    pub min_volume: f64,
+    /// Bodies with a smaller volume are left out of the output (and counted in the
+    /// shell's `filtered_bodies`); `None` keeps every body, folded ones included.
+    pub min_volume: Option<f64>,
 }
 
 impl ContourRequest {
@@ -54,7 +55,7 @@ impl ContourRequest {
             unknown: UnknownMode::Drop,
             anisotropy: None,
             grid: None,
-            min_volume: 0.0,
+            min_volume: None,
         }
     }
 }
@@ -112,6 +113,9 @@ pub struct BodySummary {
     pub area: f64,
     pub closed: bool,
     pub truncated: bool,
+    /// The DMT surface folded over itself (negative volume), so this body is the
+    /// marching-tetrahedra surface of the same marked material.
+    pub mt_fallback: bool,
     /// `[[min x, min y, min z], [max x, max y, max z]]` in input coordinates (origin added).
     pub bbox: [[f64; 3]; 2],
 }
@@ -127,6 +131,9 @@ pub struct ShellSummary {
     pub counts: ShellCounts,
     /// Triangle quality of the written triangles.
     pub quality: Quality,
+    /// Bodies left out by the request's `min_volume`, and their summed volume.
+    pub filtered_bodies: usize,
+    pub filtered_volume: f64,
     /// With `--unknown bounds`: the volumes with every "don't know" sample taken as
     /// outside (pessimistic) and as inside (optimistic).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -250,9 +257,9 @@ fn shell(
     threshold: f64,
     method: Method,
     inverse: Option<DMat3>,
-    min_volume: f64,
+    min_volume: Option<f64>,
     progress: &dyn Progress,
-) -> Result<Shell, ContourError> {
+) -> Result<(Shell, Filtered), ContourError> {
     let mut shell = match method {
         Method::Dmt(placement) => dmt::extract_shell(
             &data.mesh,
@@ -283,8 +290,25 @@ fn shell(
             .iter()
             .map(|b| (b.positions.as_slice(), b.triangles.as_slice())),
     );
-    shell.bodies.retain(|b| b.volume >= min_volume);
-    Ok(shell)
+    let mut filtered = Filtered::default();
+    if let Some(min_volume) = min_volume {
+        shell.bodies.retain(|b| {
+            let keep = b.volume >= min_volume;
+            if !keep {
+                filtered.bodies += 1;
+                filtered.volume += b.volume;
+            }
+            keep
+        });
+    }
+    Ok((shell, filtered))
+}
+
+/// What a `min_volume` filter left out of one shell.
+#[derive(Debug, Clone, Copy, Default)]
+struct Filtered {
+    bodies: usize,
+    volume: f64,
 }
 
 fn body_summary(body: &crate::dmt::Body, origin: DVec3) -> BodySummary {
@@ -294,11 +318,12 @@ fn body_summary(body: &crate::dmt::Body, origin: DVec3) -> BodySummary {
         area: body.area,
         closed: body.closed,
         truncated: body.truncated,
+        mt_fallback: body.mt_fallback,
         bbox: [(lo + origin).to_array(), (hi + origin).to_array()],
     }
 }
 
-fn shell_summary(shell: &Shell, origin: DVec3) -> ShellSummary {
+fn shell_summary(shell: &Shell, filtered: Filtered, origin: DVec3) -> ShellSummary {
     ShellSummary {
         threshold: shell.threshold,
         volume: shell.bodies.iter().map(|b| b.volume).sum(),
@@ -310,6 +335,8 @@ fn shell_summary(shell: &Shell, origin: DVec3) -> ShellSummary {
             .collect(),
         counts: shell.counts,
         quality: shell.quality,
+        filtered_bodies: filtered.bodies,
+        filtered_volume: filtered.volume,
         volume_range: None,
     }
 }
@@ -383,7 +410,8 @@ pub fn run(
             &data, threshold, method, inverse, min_volume, progress,
         )?);
     }
-    let (origin, crs, warnings) = match &request.grid {
+    let (shells, filtered): (Vec<Shell>, Vec<Filtered>) = shells.into_iter().unzip();
+    let (origin, crs, mut warnings) = match &request.grid {
         Some(g) => (
             g.volume.origin,
             g.volume.crs.clone().or_else(|| samples.crs.clone()),
@@ -395,8 +423,46 @@ pub fn run(
             samples.report.warnings.clone(),
         ),
     };
-    let mut shell_summaries: Vec<ShellSummary> =
-        shells.iter().map(|s| shell_summary(s, origin)).collect();
+    let mut shell_summaries: Vec<ShellSummary> = shells
+        .iter()
+        .zip(&filtered)
+        .map(|(s, &f)| shell_summary(s, f, origin))
+        .collect();
+    // Folded DMT surfaces are reported, never dropped silently: the bodies rebuilt by
+    // marching tetrahedra and any body still of negative volume.
+    for s in &shell_summaries {
+        let listed = |keep: &dyn Fn(&BodySummary) -> bool| -> Vec<usize> {
+            s.bodies
+                .iter()
+                .enumerate()
+                .filter(|(_, b)| keep(b))
+                .map(|(i, _)| i)
+                .collect()
+        };
+        let rebuilt = listed(&|b| b.mt_fallback);
+        if !rebuilt.is_empty() {
+            warnings.push(format!(
+                "threshold {}: the DMT surface of {} of {} bodies folded over itself (long, \
+                 flat tetrahedra between holes); bodies {:?} are the marching-tetrahedra \
+                 surface of the same material (mt_fallback)",
+                s.threshold,
+                rebuilt.len(),
+                s.bodies.len(),
+                rebuilt
+            ));
+        }
+        let folded = listed(&|b| b.volume < 0.0);
+        if !folded.is_empty() {
+            warnings.push(format!(
+                "threshold {}: {} of {} bodies have a negative volume (their surface folds over \
+                 itself; bodies {:?}); compare with --method mt",
+                s.threshold,
+                folded.len(),
+                s.bodies.len(),
+                folded
+            ));
+        }
+    }
 
     // Don't-know bounds: every sample tetrahedralized, unknowns taken as "no" then "yes".
     if request.unknown == UnknownMode::Bounds && unknown > 0 && request.grid.is_none() {
@@ -417,7 +483,7 @@ pub fn run(
         let optimistic = tetrahedralize(&all_points, &with(yes), progress)?;
         let min_volume = request.min_volume;
         for (summary, &threshold) in shell_summaries.iter_mut().zip(&thresholds) {
-            let low = shell(
+            let (low, _) = shell(
                 &pessimistic,
                 threshold,
                 method,
@@ -425,7 +491,7 @@ pub fn run(
                 min_volume,
                 progress,
             )?;
-            let high = shell(
+            let (high, _) = shell(
                 &optimistic,
                 threshold,
                 method,

@@ -227,6 +227,38 @@ fn a_body_cut_by_the_edge_of_the_drilling_is_capped_and_truncated() {
 }
 
 #[test]
+fn every_body_is_kept_by_default_and_a_min_volume_filter_is_counted() {
+    // The ellipsoid and a small ball 35 m north of its tip: two bodies.
+    let ball = centre() + DVec3::new(0.0, 195.0, 0.0);
+    let field = move |p: DVec3| Some(ellipsoid_grade(p).max(1.0 - (p - ball).length() / 30.0));
+    let samples = wells(20, 25.0, 2.0, 0.0, -240.0, 9, field);
+    let all =
+        contour::run(&request(samples.clone(), vec![0.0], None), &NoProgress).expect("contour");
+    let s = &all.summary.shells[0];
+    assert_eq!(s.bodies.len(), 2, "{:?}", s.bodies);
+    assert_eq!((s.filtered_bodies, s.filtered_volume), (0, 0.0));
+    let small = s
+        .bodies
+        .iter()
+        .map(|b| b.volume)
+        .fold(f64::INFINITY, f64::min);
+    let large = s.bodies.iter().map(|b| b.volume).fold(0.0, f64::max);
+    assert!(small > 0.0 && small < large / 10.0, "{small} {large}");
+
+    let filtered = ContourRequest {
+        min_volume: Some(small * 2.0),
+        ..request(samples, vec![0.0], None)
+    };
+    let kept = contour::run(&filtered, &NoProgress).expect("contour");
+    let s = &kept.summary.shells[0];
+    assert_eq!(s.bodies.len(), 1);
+    assert_eq!(s.filtered_bodies, 1);
+    assert!((s.filtered_volume - small).abs() < 1e-9 * large);
+    assert!((s.volume - large).abs() < 1e-9 * large);
+    assert_eq!(kept.summary.counts["bodies"], 1);
+}
+
+#[test]
 fn nested_grade_shells_share_one_tetrahedralization_and_shrink_with_the_threshold() {
     let samples = wells(13, 25.0, 2.0, 0.0, -240.0, 3, |p| Some(ellipsoid_grade(p)));
     let result =
@@ -415,4 +447,61 @@ fn method_comparison() {
             }
         }
     }
+}
+
+#[test]
+fn real_drill_holes_give_closed_bodies_of_positive_volume_near_marching_tetrahedra() {
+    // Copper Creek (BC): 488 surveyed holes, 1-3 m assays, holes tens to hundreds of metres
+    // apart: the long, flat tetrahedra where DMT surfaces can fold.
+    let d = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/drilldown_copper_creek");
+    if !d.is_dir() {
+        eprintln!("skipped: {} is absent", d.display());
+        return;
+    }
+    let file = |name: &str| {
+        wellmesh::wells::InputFile::new(name, std::fs::read(d.join(name)).expect("read"))
+    };
+    let samples = wellmesh::wells::Input::from_drillholes(
+        file("collar.csv"),
+        Some(file("survey.csv")),
+        file("assay.csv"),
+        Some("Cu_pct"),
+    )
+    .load()
+    .expect("load");
+    let dmt = contour::run(&request(samples.clone(), vec![0.3], None), &NoProgress).expect("dmt");
+    let mt = contour::run(
+        &request(samples, vec![0.3], Some(Method::MarchingTetrahedra)),
+        &NoProgress,
+    )
+    .expect("mt");
+    let (d, m) = (&dmt.summary.shells[0], &mt.summary.shells[0]);
+    assert_eq!(d.bodies.len(), m.bodies.len());
+    for b in &d.bodies {
+        assert!(b.closed && b.volume > 0.0, "{b:?}");
+    }
+    let rebuilt = d.bodies.iter().filter(|b| b.mt_fallback).count();
+    assert_eq!(
+        rebuilt > 0,
+        dmt.summary
+            .warnings
+            .iter()
+            .any(|w| w.contains("mt_fallback")),
+        "{:?}",
+        dmt.summary.warnings
+    );
+    // Far fewer than one body in ten needs the fallback.
+    assert!(rebuilt * 10 < d.bodies.len(), "{rebuilt} rebuilt");
+    let ratio = d.volume / m.volume;
+    eprintln!(
+        "DMT / MT volume {ratio:.3}, {rebuilt} of {} bodies rebuilt",
+        d.bodies.len()
+    );
+    assert!(
+        (0.8..1.1).contains(&ratio),
+        "DMT {} vs MT {}",
+        d.volume,
+        m.volume
+    );
 }

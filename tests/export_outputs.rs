@@ -122,6 +122,8 @@ fn body(parts: &[(Vec<DVec3>, Vec<[u32; 3]>)]) -> Body {
         closed: true,
         truncated: false,
         bbox,
+        region: 0,
+        mt_fallback: false,
     }
 }
 
@@ -178,6 +180,7 @@ fn result(shells: Vec<(f64, Vec<Body>)>, crs: Option<&str>) -> ContourResult {
                     area: b.area,
                     closed: b.closed,
                     truncated: b.truncated,
+                    mt_fallback: b.mt_fallback,
                     bbox: [
                         (b.bbox[0] + origin).to_array(),
                         (b.bbox[1] + origin).to_array(),
@@ -186,6 +189,8 @@ fn result(shells: Vec<(f64, Vec<Body>)>, crs: Option<&str>) -> ContourResult {
                 .collect(),
             counts: ShellCounts::default(),
             quality: Quality::default(),
+            filtered_bodies: 0,
+            filtered_volume: 0.0,
             volume_range: None,
         })
         .collect();

@@ -80,7 +80,7 @@ fn contoured() -> ContourResult {
         unknown: UnknownMode::Drop,
         anisotropy: None,
         grid: None,
-        min_volume: 0.0,
+        min_volume: None,
     };
     contour::run(&request, &NoProgress).expect("the pipeline contours the lenses")
 }

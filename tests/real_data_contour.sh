@@ -16,10 +16,13 @@ import json, sys
 s = json.load(open(sys.argv[1]))
 bodies = [b for shell in s["shells"] for b in shell["bodies"]]
 open_ = [b for b in bodies if not b["closed"]]
+inverted = [b for b in bodies if b["volume"] <= 0]
 print(f"{sys.argv[2]:12} {len(bodies):4} bodies, {sum(b['truncated'] for b in bodies):3} truncated, "
-      f"{len(open_)} open, samples {s['counts'].get('samples')}, dropped unknown {s['counts'].get('unknown_dropped')}, "
+      f"{len(open_)} open, {len(inverted)} of volume <= 0, "
+      f"{sum(b['mt_fallback'] for b in bodies)} rebuilt by MT, "
+      f"samples {s['counts'].get('samples')}, dropped unknown {s['counts'].get('unknown_dropped')}, "
       f"{len(s['warnings'])} warnings")
-sys.exit(1 if open_ or not bodies else 0)
+sys.exit(1 if open_ or inverted or not bodies else 0)
 PY
 }
 d=$data/drilldown_tom_zone

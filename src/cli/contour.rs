@@ -78,9 +78,11 @@ pub struct Args {
     #[arg(long, value_name = "DEG", requires = "anisotropy")]
     pub dip: Option<f64>,
 
-    /// Leave out bodies smaller than this volume (input units cubed).
-    #[arg(long, value_name = "VOLUME", default_value_t = 0.0)]
-    pub min_volume: f64,
+    /// Leave out bodies smaller than this volume (input units cubed); the summary counts
+    /// what was left out (`filtered_bodies`, `filtered_volume`). Without it every body is
+    /// kept, including tiny ones and folded ones with a negative volume (warned about).
+    #[arg(long, value_name = "VOLUME")]
+    pub min_volume: Option<f64>,
 
     /// Print the summary JSON on standard output (for CI).
     #[arg(long)]

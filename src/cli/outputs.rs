@@ -195,12 +195,15 @@ mod tests {
             closed: true,
             truncated: false,
             bbox: [DVec3::ZERO, DVec3::splat(10.0)],
+            region: 0,
+            mt_fallback: false,
         };
         let body_summary = BodySummary {
             volume: body.volume,
             area: body.area,
             closed: true,
             truncated: false,
+            mt_fallback: false,
             bbox: [origin.to_array(), (origin + 10.0).to_array()],
         };
         ContourResult {
@@ -219,6 +222,8 @@ mod tests {
                     bodies: vec![body_summary],
                     counts: ShellCounts::default(),
                     quality: Quality::default(),
+                    filtered_bodies: 0,
+                    filtered_volume: 0.0,
                     volume_range: None,
                 }],
                 warnings: Vec::new(),

@@ -66,6 +66,12 @@ pub struct Body {
     pub truncated: bool,
     /// Axis-aligned bounds of `positions`: `[min, max]`, local coordinates.
     pub bbox: [DVec3; 2],
+    /// The [`mt::marked_regions`] number of the marked material inside ([`mt::NO_REGION`]
+    /// when unknown).
+    pub region: u32,
+    /// The DMT surface of this body folded over itself (negative volume), so the body is
+    /// the marching-tetrahedra surface of the same marked material instead.
+    pub mt_fallback: bool,
 }
 
 /// Counts describing the extraction, for the summary.
@@ -227,8 +233,9 @@ pub fn extract_shell(
 
     let edge_crossing =
         |a: u32, b: u32| hull_crossing(mesh, place_values, place_threshold, placement, a, b);
+    let edge_ends = |a: u32, b: u32| (mesh.points[a as usize], mesh.points[b as usize]);
     let (positions, triangles, polygon_of) =
-        triangulate(&topo, positions, triangulation, &edge_crossing);
+        triangulate(&topo, positions, triangulation, &edge_crossing, &edge_ends);
     // A body is one connected piece of marked material: its outer shell together with the
     // shells of its cavities (a surface-connectivity split would make each cavity a body
     // of negative volume).
@@ -236,7 +243,22 @@ pub fn extract_shell(
         .iter()
         .map(|&k| regions[polygon_marked_point(&topo, k as usize) as usize])
         .collect();
-    let bodies = split_bodies(&topo, &positions, &triangles, &label);
+    let mut bodies = split_bodies(&topo, &positions, &triangles, &label);
+    // A closed, consistently wound surface around marked material encloses a positive
+    // volume; on the long, flat tetrahedra between drill holes a DMT surface can still
+    // fold over itself. Such a body becomes the marching-tetrahedra surface of the same
+    // marked material (embedded by construction), flagged `mt_fallback`.
+    if bodies.iter().any(|b| b.volume <= 0.0) {
+        let mut mt_bodies = mt::marching_tetrahedra(mesh, values, threshold).bodies;
+        for body in bodies.iter_mut().filter(|b| b.volume <= 0.0) {
+            if let Some(i) = mt_bodies.iter().position(|m| m.region == body.region) {
+                let mut replacement = mt_bodies.swap_remove(i);
+                replacement.mt_fallback = true;
+                *body = replacement;
+            }
+        }
+        bodies.sort_by(|a, b| b.volume.total_cmp(&a.volume));
+    }
     let quality = measure::quality(
         bodies
             .iter()
@@ -336,6 +358,7 @@ fn triangulate(
     mut positions: Vec<DVec3>,
     triangulation: Triangulation,
     edge_crossing: &dyn Fn(u32, u32) -> DVec3,
+    edge_ends: &dyn Fn(u32, u32) -> (DVec3, DVec3),
 ) -> (Vec<DVec3>, Vec<[u32; 3]>, Vec<u32>) {
     let mut triangles = Vec::with_capacity(topo.corners.len() * 2);
     let mut polygon_of = Vec::with_capacity(topo.corners.len() * 2);
@@ -343,7 +366,9 @@ fn triangulate(
         let poly = topo.polygon(k);
         let n = poly.len();
         let before = triangles.len();
-        if n == 3 {
+        let checked =
+            triangulation == Triangulation::MaxMinAngle && topo.kinds[k] == PolygonKind::Dual;
+        if n == 3 && !checked {
             triangles.push([poly[0], poly[1], poly[2]]);
             polygon_of.push(k as u32);
             continue;
@@ -360,33 +385,57 @@ fn triangulate(
             }
             PolygonKind::Dual if triangulation == Triangulation::MaxMinAngle => {
                 let pts: Vec<DVec3> = poly.iter().map(|&v| positions[v as usize]).collect();
-                let (best, diagonals) = max_min_angle_triangulation(&pts);
-                // The centroid star instead, where its smallest angle is larger (on grids,
-                // where polygons are near-regular, it often is).
-                let centre = pts.iter().sum::<DVec3>() / n as f64;
+                let (a, b) = topo.dual_edges[k];
+                if topo.dual_open[k] {
+                    // On the hull the crossing is a corner (U_e): a fan from it.
+                    let u = n - 2;
+                    for i in 1..n - 1 {
+                        triangles.push([poly[u], poly[(u + i) % n], poly[(u + i + 1) % n]]);
+                    }
+                    polygon_of.resize(triangles.len(), k as u32);
+                    continue;
+                }
+                // The dual polygon must separate its edge's marked end from its unmarked
+                // end: a triangulation is taken only if the edge passes through exactly one
+                // of its triangles, from the back to the front. On the long, flat
+                // tetrahedra between drill holes a triangulation can miss the edge
+                // altogether, and the body then folds (negative volumes measured on real
+                // drill holes). The star around the edge's crossing always separates.
+                let (pa, pb) = edge_ends(a, b);
                 let normal = newell_normal(&pts);
-                let star = (0..n)
-                    .map(|i| {
-                        let (a, b) = (pts[i], pts[(i + 1) % n]);
-                        if (a - centre).cross(b - centre).dot(normal) > 0.0 {
-                            measure::min_angle_deg(centre, a, b)
-                        } else {
-                            -1.0
-                        }
-                    })
+                let (mut best, diagonals) = if n == 3 {
+                    let t = [0, 1, 2];
+                    let score = triangle_score(pts[0], pts[1], pts[2], normal);
+                    (score, vec![t])
+                } else {
+                    max_min_angle_triangulation(&pts, normal)
+                };
+                if best > 0.0 && !separates(pa, pb, diagonals.iter().map(|t| t.map(|i| pts[i]))) {
+                    best = -1.0;
+                }
+                let pts = &pts;
+                let star = |centre: DVec3| (0..n).map(move |i| [centre, pts[i], pts[(i + 1) % n]]);
+                let centroid = pts.iter().sum::<DVec3>() / n as f64;
+                let mut centroid_score = star(centroid)
+                    .map(|[c, p, q]| triangle_score(c, p, q, normal))
                     .fold(f64::INFINITY, f64::min);
-                // Where every diagonal triangulation folds or holds a degenerate triangle
-                // (collinear corners along a hole on the hull), the star, whose centre is
-                // off every corner line.
-                if star > best || best <= 0.0 {
+                if centroid_score > 0.0 && !separates(pa, pb, star(centroid)) {
+                    centroid_score = -1.0;
+                }
+                if best > 0.0 && best >= centroid_score {
+                    for [a, b, c] in diagonals {
+                        triangles.push([poly[a], poly[b], poly[c]]);
+                    }
+                } else {
+                    let centre = if centroid_score > 0.0 {
+                        centroid
+                    } else {
+                        edge_crossing(a, b)
+                    };
                     let c = positions.len() as u32;
                     positions.push(centre);
                     for i in 0..n {
                         triangles.push([c, poly[i], poly[(i + 1) % n]]);
-                    }
-                } else {
-                    for [a, b, c] in diagonals {
-                        triangles.push([poly[a], poly[b], poly[c]]);
                     }
                 }
             }
@@ -435,22 +484,61 @@ fn newell_normal(pts: &[DVec3]) -> DVec3 {
     (0..n).fold(DVec3::ZERO, |acc, i| acc + pts[i].cross(pts[(i + 1) % n]))
 }
 
+/// A triangle's smallest angle, or -1 when it faces against `normal` (so a fold scores
+/// below every triangle that does not fold).
+fn triangle_score(a: DVec3, b: DVec3, c: DVec3, normal: DVec3) -> f64 {
+    if (b - a).cross(c - a).dot(normal) > 0.0 {
+        measure::min_angle_deg(a, b, c)
+    } else {
+        -1.0
+    }
+}
+
+/// Whether the segment `a -> b` passes through exactly one of `triangles`, entering at
+/// its back (the side its winding's normal points away from) and leaving at its front.
+/// Touching an edge or corner of a triangle counts as a failure.
+fn separates(a: DVec3, b: DVec3, triangles: impl Iterator<Item = [DVec3; 3]>) -> bool {
+    let d = b - a;
+    let mut crossings = 0;
+    for [p, q, r] in triangles {
+        // Signs of the segment's passage around each triangle edge (Plücker-style
+        // triple products): all positive or all negative means it passes through.
+        let s0 = d.dot((q - a).cross(r - a));
+        let s1 = d.dot((r - a).cross(p - a));
+        let s2 = d.dot((p - a).cross(q - a));
+        let through = (s0 > 0.0 && s1 > 0.0 && s2 > 0.0) || (s0 < 0.0 && s1 < 0.0 && s2 < 0.0);
+        if !through {
+            if s0 == 0.0 || s1 == 0.0 || s2 == 0.0 {
+                // On an edge line: undecided, take the safe triangulation.
+                let n = (q - p).cross(r - p);
+                if n.dot(a - p).signum() != n.dot(b - p).signum() {
+                    return false;
+                }
+            }
+            continue;
+        }
+        // The line passes through the triangle; does the segment reach its plane?
+        let n = (q - p).cross(r - p);
+        let (ha, hb) = (n.dot(a - p), n.dot(b - p));
+        if ha == 0.0 || hb == 0.0 {
+            return false;
+        }
+        if ha < 0.0 && hb > 0.0 {
+            crossings += 1;
+        } else if ha > 0.0 && hb < 0.0 {
+            return false;
+        }
+    }
+    crossings == 1
+}
+
 /// The triangulation of the polygon `pts` (by diagonals, no added vertex) whose smallest
 /// triangle angle is largest among those with no triangle facing against the polygon's
 /// normal (dynamic programming over sub-polygons, O(n^3)); triangles as corner indices
 /// wound like the polygon, and that smallest angle (-1 when every triangulation folds).
-fn max_min_angle_triangulation(pts: &[DVec3]) -> (f64, Vec<[usize; 3]>) {
+fn max_min_angle_triangulation(pts: &[DVec3], normal: DVec3) -> (f64, Vec<[usize; 3]>) {
     let n = pts.len();
-    // Newell normal of the polygon: a triangle facing against it scores below every
-    // triangle that does not, so folds are taken only where every triangulation folds.
-    let normal = newell_normal(pts);
-    let score = |a: DVec3, b: DVec3, c: DVec3| {
-        if (b - a).cross(c - a).dot(normal) > 0.0 {
-            measure::min_angle_deg(a, b, c)
-        } else {
-            -1.0
-        }
-    };
+    let score = |a, b, c| triangle_score(a, b, c, normal);
     // best[i][j]: best smallest angle over triangulations of the sub-polygon i..=j.
     let mut best = vec![f64::INFINITY; n * n];
     let mut split = vec![0usize; n * n];
@@ -496,7 +584,9 @@ fn split_bodies(
     order.par_sort_by_key(|&t| label[t as usize]);
     // Compact vertex numbering per body; bodies share no vertex, so one map serves all.
     let mut local = vec![u32::MAX; positions.len()];
-    let parts: Vec<(Vec<DVec3>, Vec<[u32; 3]>, bool)> = order
+    // (positions, triangles, truncated, region) of each body.
+    type Part = (Vec<DVec3>, Vec<[u32; 3]>, bool, u32);
+    let parts: Vec<Part> = order
         .chunk_by(|&a, &b| label[a as usize] == label[b as usize])
         .map(|group| {
             let mut body_positions = Vec::new();
@@ -515,12 +605,17 @@ fn split_bodies(
                     })
                 })
                 .collect();
-            (body_positions, body_triangles, truncated)
+            (
+                body_positions,
+                body_triangles,
+                truncated,
+                label[group[0] as usize],
+            )
         })
         .collect();
     let mut bodies: Vec<Body> = parts
         .into_par_iter()
-        .map(|(positions, triangles, truncated)| Body {
+        .map(|(positions, triangles, truncated, region)| Body {
             volume: measure::volume(&positions, &triangles),
             area: measure::area(&positions, &triangles),
             closed: measure::is_closed_and_oriented(&triangles),
@@ -528,6 +623,8 @@ fn split_bodies(
             bbox: measure::bbox(&positions),
             positions,
             triangles,
+            region,
+            mt_fallback: false,
         })
         .collect();
     bodies.sort_by(|a, b| b.volume.total_cmp(&a.volume));

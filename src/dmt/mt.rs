@@ -582,7 +582,9 @@ pub fn bodies_by_label(
         let truncated = group
             .iter()
             .any(|n| is_cap.get(*n).copied().unwrap_or(false));
-        bodies.push(measure_body(body_positions, body_triangles, truncated));
+        let mut body = measure_body(body_positions, body_triangles, truncated);
+        body.region = labels[group[0]];
+        bodies.push(body);
     }
     bodies.sort_by(|a, b| b.volume.total_cmp(&a.volume));
     bodies
@@ -612,6 +614,8 @@ pub fn measure_body(positions: Vec<DVec3>, triangles: Vec<[u32; 3]>, truncated: 
         closed,
         truncated,
         bbox: [lo, hi],
+        region: NO_REGION,
+        mt_fallback: false,
     }
 }
 

@@ -348,3 +348,45 @@ fn a_hollow_body_is_one_body_whose_volume_excludes_the_cavity() {
         b.volume
     );
 }
+
+#[test]
+fn a_dual_polygon_triangulation_must_let_its_edge_through_once_from_back_to_front() {
+    // A square around the z axis, counter-clockwise seen from +z: its two diagonal
+    // triangulations both separate (0,0,-1) from (0,0,1).
+    let sq = [
+        DVec3::new(1.0, 0.0, 0.0),
+        DVec3::new(0.0, 1.0, 0.0),
+        DVec3::new(-1.0, 0.0, 0.0),
+        DVec3::new(0.0, -1.0, 0.0),
+    ];
+    let (a, b) = (DVec3::new(0.1, 0.2, -1.0), DVec3::new(0.1, 0.2, 1.0));
+    let diagonal = [[sq[0], sq[1], sq[2]], [sq[0], sq[2], sq[3]]];
+    assert!(separates(a, b, diagonal.into_iter()));
+    // From the front: the surface would face into the marked end.
+    assert!(!separates(b, a, diagonal.into_iter()));
+    // A segment that misses the triangles, or stops short of them.
+    let beside = DVec3::new(3.0, 0.0, 0.0);
+    assert!(!separates(a + beside, b + beside, diagonal.into_iter()));
+    assert!(!separates(
+        a,
+        DVec3::new(0.1, 0.2, -0.5),
+        diagonal.into_iter()
+    ));
+    // A folded triangulation lets the edge through twice (once backwards).
+    let folded = [
+        [sq[0], sq[1], sq[2]],
+        [sq[0], sq[2], sq[3]],
+        [
+            sq[0] + DVec3::Z * 0.5,
+            sq[2] + DVec3::Z * 0.5,
+            sq[1] + DVec3::Z * 0.5,
+        ],
+    ];
+    assert!(!separates(a, b, folded.into_iter()));
+    // Through the shared diagonal: undecided, so refused (the safe star is taken).
+    assert!(!separates(
+        DVec3::new(0.0, 0.0, -1.0),
+        DVec3::new(0.0, 0.0, 1.0),
+        diagonal.into_iter()
+    ));
+}

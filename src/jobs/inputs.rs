@@ -280,7 +280,7 @@ impl ProcessInputs {
                 .anisotropy
                 .map(|scale| Anisotropy::scale(glam::DVec3::from_array(scale))),
             grid: None,
-            min_volume: self.min_volume.unwrap_or(0.0),
+            min_volume: self.min_volume,
         })
     }
 }
