@@ -227,6 +227,32 @@ fn a_body_cut_by_the_edge_of_the_drilling_is_capped_and_truncated() {
 }
 
 #[test]
+fn binary_wells_with_the_curvature_placement_stay_smooth() {
+    // The paper's lattice search, kept near the balanced distance surface (docs/dmt.md):
+    // it must not crumple the surface between the wells.
+    let samples = wells(17, 25.0, 2.0, 0.0, -240.0, 11, |p| {
+        Some(if ellipsoid_grade(p) >= 0.0 { 1.0 } else { 0.0 })
+    });
+    let curvature = Some(Method::Dmt(Placement::Curvature { lattice: 7 }));
+    let result =
+        contour::run(&request(samples.clone(), vec![], curvature), &NoProgress).expect("contour");
+    assert_eq!(result.summary.method, "curvature");
+    let body = &result.shells[0].bodies;
+    assert_eq!(body.len(), 1);
+    assert!(body[0].closed);
+    let exact_volume = 4.0 / 3.0 * std::f64::consts::PI * AXES.x * AXES.y * AXES.z;
+    let exact_area = ellipsoid_area(AXES.x, AXES.y, AXES.z);
+    let dv = (body[0].volume - exact_volume) / exact_volume;
+    let da = (body[0].area - exact_area) / exact_area;
+    eprintln!("curvature: volume error {dv:+.4}, area error {da:+.4}");
+    assert!(dv.abs() < 0.03, "volume error {dv:+.4}");
+    assert!(
+        da.abs() < 0.05,
+        "area within 5% of the true surface: {da:+.4}"
+    );
+}
+
+#[test]
 fn every_body_is_kept_by_default_and_a_min_volume_filter_is_counted() {
     // The ellipsoid and a small ball 35 m north of its tip: two bodies.
     let ball = centre() + DVec3::new(0.0, 195.0, 0.0);

@@ -146,7 +146,8 @@ fn balanced(g: f64, alpha: f64) -> f64 {
 /// spacing away; bodies come out several percent small. The midpoint rule's volume is the
 /// unbiased estimate when the boundary may lie anywhere between an inside and an outside
 /// sample, so each body keeps the distance field's shape and the midpoint rule's volume.
-/// `regions[v]` is the body of marked vertex `v` (see `mt::marked_regions`).
+/// `regions[v]` is the body of marked vertex `v` (see `mt::marked_regions`). Returns the
+/// balanced field at the corners (in `mesh.tets` order) of each active tetrahedron.
 pub fn place_balanced(
     topo: &Topology,
     mesh: &TetMesh,
@@ -154,7 +155,7 @@ pub fn place_balanced(
     field: &[f64],
     regions: &[u32],
     positions: &mut [DVec3],
-) {
+) -> Vec<[f64; 4]> {
     let n_regions = regions
         .iter()
         .zip(marked)
@@ -255,6 +256,17 @@ pub fn place_balanced(
         alpha[r] = 0.5 * (lo[r] + hi[r]);
     }
     place(&alpha, false, positions);
+    // The balanced field at the corners of every active tetrahedron.
+    topo.roles[..topo.active_tets]
+        .par_iter()
+        .zip(&vertex_region[..topo.active_tets])
+        .map(|(role, &r)| {
+            let VertexRole::Tet { tet } = *role else {
+                unreachable!("the first vertices are DMT vertices")
+            };
+            mesh.tets[tet as usize].map(|v| balanced(field[v as usize], alpha[r as usize]))
+        })
+        .collect()
 }
 
 #[cfg(test)]

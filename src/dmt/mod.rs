@@ -210,8 +210,10 @@ pub fn extract_shell(
             (values, threshold)
         };
     let regions = mt::marked_regions(mesh, &marked);
+    let mut corner_field = Vec::new();
     if matches!(placement, Placement::Distance | Placement::Curvature { .. }) {
-        distance::place_balanced(&topo, mesh, &marked, place_values, &regions, &mut positions);
+        corner_field =
+            distance::place_balanced(&topo, mesh, &marked, place_values, &regions, &mut positions);
     } else {
         place_vertices(
             &topo,
@@ -224,7 +226,14 @@ pub fn extract_shell(
         );
     }
     if let Placement::Curvature { lattice } = placement {
-        curvature::optimize(&topo, mesh, &mut positions, lattice, progress)?;
+        curvature::optimize(
+            &topo,
+            mesh,
+            &corner_field,
+            &mut positions,
+            lattice,
+            progress,
+        )?;
     }
     if progress.is_cancelled() {
         return Err(DmtError::Cancelled);
