@@ -217,7 +217,9 @@ pub fn is_binary(values: &[Option<f64>]) -> bool {
 /// thin tetrahedra of drilling data: see docs/dmt.md for the measurements.)
 pub fn default_method(binary: bool) -> Method {
     if binary {
-        Method::Dmt(Placement::Distance)
+        Method::Dmt(Placement::Curvature {
+            lattice: crate::dmt::DEFAULT_CURVATURE_LATTICE,
+        })
     } else {
         Method::Dmt(Placement::Ibc)
     }

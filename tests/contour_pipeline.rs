@@ -157,13 +157,13 @@ fn an_ellipsoid_grade_body_from_utm_wells_is_one_closed_body_with_the_right_volu
 }
 
 #[test]
-fn binary_wells_give_a_smooth_closed_body_with_the_distance_placement_by_default() {
+fn binary_wells_give_a_smooth_closed_body_with_the_curvature_placement_by_default() {
     let samples = wells(13, 30.0, 2.0, 0.0, -240.0, 11, |p| {
         Some(if ellipsoid_grade(p) >= 0.0 { 1.0 } else { 0.0 })
     });
     let result =
         contour::run(&request(samples.clone(), vec![], None), &NoProgress).expect("contour");
-    assert_eq!(result.summary.method, "distance");
+    assert_eq!(result.summary.method, "curvature");
     assert!(result.summary.binary);
     let shell = &result.shells[0];
     assert_eq!(shell.threshold, 0.5);
@@ -187,7 +187,8 @@ fn binary_wells_give_a_smooth_closed_body_with_the_distance_placement_by_default
     eprintln!(
         "binary: volume error {dv:+.4}, area error {da:+.4} (MT {mt_area:+.4}), slivers {slivers:.3} (MT {mt_slivers:.3})"
     );
-    // Each body keeps the midpoint rule's volume (the balance of the distance placement).
+    // Each body keeps the midpoint rule's volume (the balance of the distance placement
+    // the curvature search starts from).
     let midpoint = contour::run(
         &request(
             samples.clone(),

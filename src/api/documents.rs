@@ -384,7 +384,7 @@ pub fn process_description() -> ProcessDescription {
         "method".to_string(),
         input(
             "Vertex placement",
-            "distance, curvature, ibc, coi, midpoint (Dual Marching Tetrahedra) or mt (marching tetrahedra). Default: distance for 0/1 data, ibc for grades.",
+            "distance, curvature, ibc, coi, midpoint (Dual Marching Tetrahedra) or mt (marching tetrahedra). Default: curvature for 0/1 data, ibc for grades.",
             json!({"type": "string", "enum": ["distance", "curvature", "ibc", "coi", "midpoint", "mt"]}),
         ),
     );

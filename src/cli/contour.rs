@@ -50,10 +50,10 @@ pub struct Args {
     )]
     pub thresholds: Vec<f64>,
 
-    /// Vertex placement: distance (default for 0/1 data: IbC on the signed distance to the
-    /// nearest sample of the other class), ibc (default for grades), coi, midpoint,
-    /// curvature (the paper's minimal discrete norm curvature), or mt (marching
-    /// tetrahedra, for comparison).
+    /// Vertex placement: curvature (default for 0/1 data: the paper's minimal discrete norm
+    /// curvature, searched near the distance surface), distance (IbC on the signed distance
+    /// to the nearest sample of the other class, balanced to the midpoint rule's volume),
+    /// ibc (default for grades), coi, midpoint, or mt (marching tetrahedra, for comparison).
     #[arg(short, long, value_name = "METHOD")]
     pub method: Option<String>,
 

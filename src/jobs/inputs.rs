@@ -49,7 +49,7 @@ pub struct ProcessInputs {
     /// One shell per threshold; a sample is inside when `value >= threshold`.
     pub thresholds: Thresholds,
     /// Vertex placement: `distance`, `curvature`, `ibc`, `coi`, `midpoint` or `mt`.
-    /// Default: distance for 0/1 data, IbC for grades.
+    /// Default: curvature for 0/1 data, IbC for grades.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub method: Option<String>,
     /// "Don't know" samples: `drop` (default) or `bounds`.
