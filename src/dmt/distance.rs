@@ -136,6 +136,26 @@ fn balanced(g: f64, alpha: f64) -> f64 {
     }
 }
 
+/// What each body's volume is balanced to, and the placement rule used on the field.
+#[derive(Clone, Copy)]
+pub struct Balance<'a> {
+    /// Per marked region: the volume to match; `None`: the midpoint rule's volume.
+    pub target: Option<&'a [f64]>,
+    /// The placement rule applied to the balanced field (threshold 0).
+    pub rule: fn(&SortedCorners, f64) -> DVec3,
+    /// Bisection steps (precision `2^-steps` of the balance's range).
+    pub steps: usize,
+}
+
+impl Balance<'_> {
+    /// The distance placement's balance: IbC, the midpoint rule's volume.
+    pub const MIDPOINT_RULE: Balance<'static> = Balance {
+        target: None,
+        rule: place::ibc,
+        steps: BALANCE_STEPS,
+    };
+}
+
 /// Places every surface vertex by IbC on the signed distance `field`, with one balance per
 /// marked region (body) chosen so that the body's volume equals its volume under the
 /// midpoint rule.
@@ -155,6 +175,7 @@ pub fn place_balanced(
     field: &[f64],
     regions: &[u32],
     positions: &mut [DVec3],
+    balance: Balance<'_>,
 ) -> Vec<[f64; 4]> {
     let n_regions = regions
         .iter()
@@ -218,7 +239,7 @@ pub fn place_balanced(
                 *p = if midpoint {
                     place::midpoint(&corners, 0.0)
                 } else {
-                    place::ibc(&corners, 0.0)
+                    (balance.rule)(&corners, 0.0)
                 };
             });
         let crossing = |a: u32, b: u32| {
@@ -233,12 +254,19 @@ pub fn place_balanced(
         place_hull_vertices(topo, mesh, marked, &crossing, positions);
     };
     let zero = vec![0.0; n_regions];
-    place(&zero, true, positions);
-    let target = volumes(positions);
+    let target = match balance.target {
+        Some(t) => (0..n_regions)
+            .map(|r| t.get(r).copied().unwrap_or(0.0))
+            .collect(),
+        None => {
+            place(&zero, true, positions);
+            volumes(positions)
+        }
+    };
     let mut lo = vec![-BALANCE_LIMIT; n_regions];
     let mut hi = vec![BALANCE_LIMIT; n_regions];
     let mut alpha = zero;
-    for _ in 0..BALANCE_STEPS {
+    for _ in 0..balance.steps {
         for r in 0..n_regions {
             alpha[r] = 0.5 * (lo[r] + hi[r]);
         }

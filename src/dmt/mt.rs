@@ -544,6 +544,82 @@ pub fn marked_regions(mesh: &TetMesh, marked: &[bool]) -> Vec<u32> {
         .collect()
 }
 
+/// The volume of each marked region under the linear interpolation of `values` on `mesh`
+/// (the volume marching tetrahedra encloses, without building its surface): per region id
+/// of `regions` ([`marked_regions`]), `len` = the largest id + 1.
+///
+/// Per tetrahedron the marked part is convex: the whole tetrahedron, a corner cut off at the
+/// crossings (one marked corner), the tetrahedron minus such a corner (three), or a wedge
+/// (two), measured as cones from a marked corner over the faces away from it.
+pub fn region_volumes(mesh: &TetMesh, values: &[f64], threshold: f64, regions: &[u32]) -> Vec<f64> {
+    let len = regions
+        .iter()
+        .filter(|&&r| r != NO_REGION)
+        .map(|&r| r as usize + 1)
+        .max()
+        .unwrap_or(0);
+    let cone = |apex: DVec3, a: DVec3, b: DVec3, c: DVec3| {
+        ((a - apex).dot((b - apex).cross(c - apex)) / 6.0).abs()
+    };
+    mesh.tets
+        .par_iter()
+        .fold(
+            || vec![0.0; len],
+            |mut acc, tet| {
+                let marked = tet.map(|v| values[v as usize] >= threshold);
+                let m = marked.iter().filter(|&&x| x).count();
+                if m == 0 {
+                    return acc;
+                }
+                let p = tet.map(|v| mesh.points[v as usize]);
+                let f = tet.map(|v| values[v as usize]);
+                // The crossing on edge i -> j (i marked, j not).
+                let cross = |i: usize, j: usize| {
+                    let t = ((f[i] - threshold) / (f[i] - f[j])).clamp(0.0, 1.0);
+                    p[i] + (p[j] - p[i]) * t
+                };
+                let inside: Vec<usize> = (0..4).filter(|&i| marked[i]).collect();
+                let outside: Vec<usize> = (0..4).filter(|&i| !marked[i]).collect();
+                let whole = cone(p[0], p[1], p[2], p[3]);
+                let volume = match m {
+                    4 => whole,
+                    1 => {
+                        let a = inside[0];
+                        let [b, c, d] = [outside[0], outside[1], outside[2]];
+                        cone(p[a], cross(a, b), cross(a, c), cross(a, d))
+                    }
+                    3 => {
+                        let d = outside[0];
+                        let [a, b, c] = [inside[0], inside[1], inside[2]];
+                        whole - cone(p[d], cross(a, d), cross(b, d), cross(c, d))
+                    }
+                    _ => {
+                        let [a, b] = [inside[0], inside[1]];
+                        let [c, d] = [outside[0], outside[1]];
+                        let (ac, ad, bc, bd) = (cross(a, c), cross(a, d), cross(b, c), cross(b, d));
+                        // Faces away from `a`: the triangle (b, bc, bd) on face bcd and the
+                        // planar quad (ac, ad, bd, bc) of the cut.
+                        cone(p[a], p[b], bc, bd) + cone(p[a], ac, ad, bd) + cone(p[a], ac, bd, bc)
+                    }
+                };
+                let r = regions[tet[inside[0]] as usize];
+                if r != NO_REGION {
+                    acc[r as usize] += volume;
+                }
+                acc
+            },
+        )
+        .reduce(
+            || vec![0.0; len],
+            |mut a, b| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    *x += y;
+                }
+                a
+            },
+        )
+}
+
 /// No marked region (see [`marked_regions`]).
 pub const NO_REGION: u32 = u32::MAX;
 

@@ -390,3 +390,52 @@ fn a_dual_polygon_triangulation_must_let_its_edge_through_once_from_back_to_fron
         diagonal.into_iter()
     ));
 }
+
+#[test]
+fn region_volumes_equal_the_marching_tetrahedra_bodies_and_grade_bodies_keep_them() {
+    // Two spheres, one cut by the grid's boundary: per region, the analytic volume of the
+    // linear interpolation's superlevel set equals the closed MT body's volume, and IbC and
+    // CoI bodies are balanced to it.
+    let mesh = grid_mesh(20, -1.0, 1.0);
+    let a = sphere_values(&mesh, DVec3::new(-0.45, 0.02, 0.01), 0.4);
+    let b = sphere_values(&mesh, DVec3::new(0.75, -0.03, 0.02), 0.45);
+    let values: Vec<f64> = a.iter().zip(&b).map(|(x, y)| x.max(*y)).collect();
+    let marked: Vec<bool> = values.iter().map(|&v| v >= 0.0).collect();
+    let regions = mt::marked_regions(&mesh, &marked);
+    let volumes = mt::region_volumes(&mesh, &values, 0.0, &regions);
+    let surface = mt::marching_tetrahedra(&mesh, &values, 0.0);
+    assert_eq!(surface.bodies.len(), 2);
+    for body in &surface.bodies {
+        let want = volumes[body.region as usize];
+        assert!(
+            (body.volume - want).abs() < 1e-12 * want.max(1.0) * 1e3,
+            "region {}: MT {} vs {}",
+            body.region,
+            body.volume,
+            want
+        );
+    }
+    for placement in [Placement::Ibc, Placement::Coi] {
+        let shell = extract_shell(
+            &mesh,
+            &values,
+            0.0,
+            placement,
+            Triangulation::default(),
+            &NoProgress,
+        )
+        .unwrap();
+        assert_eq!(shell.bodies.len(), 2);
+        for body in &shell.bodies {
+            let want = volumes[body.region as usize];
+            // The balance is solved on a fan of each polygon; the output triangulation
+            // differs from it by a little.
+            assert!(
+                (body.volume - want).abs() < 0.005 * want,
+                "{placement:?} region {}: {} vs MT {want}",
+                body.region,
+                body.volume
+            );
+        }
+    }
+}
