@@ -120,8 +120,6 @@ pub fn signed_class_distance(mesh: &TetMesh, marked: &[bool]) -> Vec<f64> {
         .collect()
 }
 
-/// Bisection steps of the per-body balance (precision 2^-BALANCE_STEPS of its range).
-const BALANCE_STEPS: usize = 24;
 /// The balance stays inside (-BALANCE_LIMIT, BALANCE_LIMIT), so signs never flip.
 const BALANCE_LIMIT: f64 = 0.95;
 
@@ -139,33 +137,25 @@ fn balanced(g: f64, alpha: f64) -> f64 {
 /// What each body's volume is balanced to, and the placement rule used on the field.
 #[derive(Clone, Copy)]
 pub struct Balance<'a> {
-    /// Per marked region: the volume to match; `None`: the midpoint rule's volume.
-    pub target: Option<&'a [f64]>,
+    /// Per marked region (`mt::marked_regions` id): the volume to match.
+    pub target: &'a [f64],
     /// The placement rule applied to the balanced field (threshold 0).
     pub rule: fn(&SortedCorners, f64) -> DVec3,
     /// Bisection steps (precision `2^-steps` of the balance's range).
     pub steps: usize,
 }
 
-impl Balance<'_> {
-    /// The distance placement's balance: IbC, the midpoint rule's volume.
-    pub const MIDPOINT_RULE: Balance<'static> = Balance {
-        target: None,
-        rule: place::ibc,
-        steps: BALANCE_STEPS,
-    };
-}
-
-/// Places every surface vertex by IbC on the signed distance `field`, with one balance per
-/// marked region (body) chosen so that the body's volume equals its volume under the
-/// midpoint rule.
+/// Places every surface vertex by `balance.rule` on the signed `field` (positive exactly
+/// at marked vertices), with one balance per marked region (body) chosen so that the
+/// body's volume equals `balance.target` for its region.
 ///
-/// Why: the distance field gives smooth surfaces (no staircase between samples), but at
-/// convex edges it leans towards the inside samples, whose nearest outside sample is the
-/// next one down the hole, while the outside samples' nearest inside one is a whole well
-/// spacing away; bodies come out several percent small. The midpoint rule's volume is the
-/// unbiased estimate when the boundary may lie anywhere between an inside and an outside
-/// sample, so each body keeps the distance field's shape and the midpoint rule's volume.
+/// Why: the distance field of 0/1 data gives smooth surfaces (no staircase between
+/// samples), but at convex edges it leans towards the inside samples, whose nearest outside
+/// sample is the next one down the hole, while the outside samples' nearest inside one is a
+/// whole well spacing away; bodies come out several percent small. On grade data DMT's
+/// polygons are chords across convex surfaces. The target the callers give is the volume
+/// of the linear interpolation's superlevel set (what marching tetrahedra encloses), so
+/// each body keeps its placement's shape and that volume.
 /// `regions[v]` is the body of marked vertex `v` (see `mt::marked_regions`). Returns the
 /// balanced field at the corners (in `mesh.tets` order) of each active tetrahedron.
 pub fn place_balanced(
@@ -221,7 +211,7 @@ pub fn place_balanced(
         }
         v
     };
-    let place = |alpha: &[f64], midpoint: bool, positions: &mut [DVec3]| {
+    let place = |alpha: &[f64], positions: &mut [DVec3]| {
         let value = |v: u32, r: u32| balanced(field[v as usize], alpha[r as usize]);
         positions[..topo.active_tets]
             .par_iter_mut()
@@ -236,33 +226,19 @@ pub fn place_balanced(
                     tv.map(|v| mesh.points[v as usize]),
                     tv.map(|v| value(v, r)),
                 );
-                *p = if midpoint {
-                    place::midpoint(&corners, 0.0)
-                } else {
-                    (balance.rule)(&corners, 0.0)
-                };
+                *p = (balance.rule)(&corners, 0.0);
             });
         let crossing = |a: u32, b: u32| {
             let (pa, pb) = (mesh.points[a as usize], mesh.points[b as usize]);
-            if midpoint {
-                (pa + pb) * 0.5
-            } else {
-                let r = regions[a as usize];
-                place::crossing(pb, pa, value(b, r), value(a, r), 0.0)
-            }
+            let r = regions[a as usize];
+            place::crossing(pb, pa, value(b, r), value(a, r), 0.0)
         };
         place_hull_vertices(topo, mesh, marked, &crossing, positions);
     };
+    let target: Vec<f64> = (0..n_regions)
+        .map(|r| balance.target.get(r).copied().unwrap_or(0.0))
+        .collect();
     let zero = vec![0.0; n_regions];
-    let target = match balance.target {
-        Some(t) => (0..n_regions)
-            .map(|r| t.get(r).copied().unwrap_or(0.0))
-            .collect(),
-        None => {
-            place(&zero, true, positions);
-            volumes(positions)
-        }
-    };
     let mut lo = vec![-BALANCE_LIMIT; n_regions];
     let mut hi = vec![BALANCE_LIMIT; n_regions];
     let mut alpha = zero;
@@ -270,7 +246,7 @@ pub fn place_balanced(
         for r in 0..n_regions {
             alpha[r] = 0.5 * (lo[r] + hi[r]);
         }
-        place(&alpha, false, positions);
+        place(&alpha, positions);
         // Volume grows with the balance: a larger marked side pushes crossings outwards.
         for (r, v) in volumes(positions).into_iter().enumerate() {
             if v < target[r] {
@@ -283,7 +259,7 @@ pub fn place_balanced(
     for r in 0..n_regions {
         alpha[r] = 0.5 * (lo[r] + hi[r]);
     }
-    place(&alpha, false, positions);
+    place(&alpha, positions);
     // The balanced field at the corners of every active tetrahedron.
     topo.roles[..topo.active_tets]
         .par_iter()
