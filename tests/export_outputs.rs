@@ -321,6 +321,7 @@ fn the_glb_reads_back_with_its_meshes_vertices_and_extras() {
                 assert_number(&e["threshold"], shell.threshold);
                 assert_eq!(e["closed"], true);
                 assert_eq!(e["truncated"], false);
+                assert_eq!(e["mt_fallback"], false);
                 for (k, corner) in expected.bbox.iter().enumerate() {
                     for (c, &v) in corner.iter().enumerate() {
                         assert_number(&e["bbox"][k][c], v);

@@ -216,6 +216,7 @@ pub fn glb(result: &ContourResult, options: &OutputOptions) -> Result<Vec<u8>, E
                 "area": body_summary.area,
                 "closed": body_summary.closed,
                 "truncated": body_summary.truncated,
+                "mt_fallback": body_summary.mt_fallback,
                 "bbox": body_summary.bbox,
             });
             let mut node = json!({ "name": name, "extras": extras });
