@@ -516,10 +516,19 @@ fn real_drill_holes_give_closed_bodies_of_positive_volume_near_marching_tetrahed
         "DMT / MT volume {ratio:.3}, {rebuilt} of {} bodies rebuilt",
         d.bodies.len()
     );
+    // Each body is balanced to the linear interpolation's volume on the triangles it is
+    // output with (a balance solved on a stand-in triangulation once gave +7% here and
+    // +20% on Tom Zone).
     assert!(
-        (0.8..1.1).contains(&ratio),
+        (0.99..1.01).contains(&ratio),
         "DMT {} vs MT {}",
         d.volume,
         m.volume
     );
+    for (db, mb) in d.bodies.iter().zip(&m.bodies).take(3) {
+        assert!(
+            (db.volume / mb.volume - 1.0).abs() < 0.01,
+            "largest bodies: DMT {db:?} vs MT {mb:?}"
+        );
+    }
 }

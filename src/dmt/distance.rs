@@ -14,6 +14,7 @@ use rayon::prelude::*;
 
 use super::extract::{Topology, VertexRole, place_hull_vertices};
 use super::place::{self, SortedCorners};
+use super::{Added, Plan, polygon_marked_point};
 use crate::tet::TetMesh;
 
 /// Vertex -> incident tetrahedra (compressed rows).
@@ -143,6 +144,134 @@ pub struct Balance<'a> {
     pub rule: fn(&SortedCorners, f64) -> DVec3,
     /// Bisection steps (precision `2^-steps` of the balance's range).
     pub steps: usize,
+    /// The triangulation whose volumes are balanced; without one, a fan of every polygon
+    /// stands in for it (a rough guess on twisted polygons: a first pass only).
+    pub plan: Option<&'a Plan>,
+}
+
+/// A body's volume is balanced to this share of its target.
+const BALANCE_TOLERANCE: f64 = 1e-5;
+
+/// The root of an increasing function `g` on `(-limit, limit)`, searched from 0: a step
+/// outwards until the root is bracketed, then false position with the Illinois rule
+/// (superlinear, and never worse than a few bisections).
+struct RootSearch {
+    lo: (f64, Option<f64>),
+    hi: (f64, Option<f64>),
+    /// The end kept by the last step: -1 lower, 1 upper.
+    kept: i8,
+    best: (f64, f64),
+    tolerance: f64,
+    evaluated: bool,
+    /// The next outward step while only one end is known.
+    step: f64,
+}
+
+impl RootSearch {
+    fn new(limit: f64, tolerance: f64) -> Self {
+        Self {
+            lo: (-limit, None),
+            hi: (limit, None),
+            kept: 0,
+            best: (0.0, f64::INFINITY),
+            tolerance,
+            evaluated: false,
+            step: 0.1,
+        }
+    }
+
+    fn done(&self) -> bool {
+        self.best.1.abs() <= self.tolerance || self.hi.0 - self.lo.0 < 1e-9
+    }
+
+    fn best(&self) -> f64 {
+        self.best.0
+    }
+
+    /// The next balance to evaluate.
+    fn next(&self) -> f64 {
+        if self.done() {
+            return self.best.0;
+        }
+        let (lo, hi) = (self.lo.0, self.hi.0);
+        match (self.lo.1, self.hi.1) {
+            _ if !self.evaluated => 0.0,
+            (Some(glo), Some(ghi)) => {
+                let x = lo - glo * (hi - lo) / (ghi - glo);
+                // Keep strictly inside the bracket.
+                let margin = 1e-3 * (hi - lo);
+                x.clamp(lo + margin, hi - margin)
+            }
+            // One end known: step outwards, twice as far each time, at most halfway to
+            // the limit.
+            (Some(_), None) => lo + self.step.min(0.5 * (hi - lo)),
+            (None, Some(_)) => hi - self.step.min(0.5 * (hi - lo)),
+            (None, None) => 0.5 * (lo + hi),
+        }
+    }
+
+    fn record(&mut self, x: f64, g: f64) {
+        if !g.is_finite() {
+            return;
+        }
+        if self.evaluated && (self.lo.1.is_none() || self.hi.1.is_none()) {
+            self.step *= 2.0;
+        }
+        self.evaluated = true;
+        if g.abs() < self.best.1.abs() {
+            self.best = (x, g);
+        }
+        if g < 0.0 {
+            if x >= self.lo.0 {
+                // Illinois: the upper end was kept twice, so its weight halves.
+                if self.kept == 1
+                    && let Some(ghi) = &mut self.hi.1
+                {
+                    *ghi *= 0.5;
+                }
+                self.lo = (x, Some(g));
+                self.kept = 1;
+            }
+        } else if x <= self.hi.0 {
+            if self.kept == -1
+                && let Some(glo) = &mut self.lo.1
+            {
+                *glo *= 0.5;
+            }
+            self.hi = (x, Some(g));
+            self.kept = -1;
+        }
+    }
+}
+
+/// What [`place_balanced`] found: the balanced field at the corners (in `mesh.tets` order)
+/// of each active tetrahedron, and the balance of each marked region.
+pub struct Balanced {
+    pub corner_field: Vec<[f64; 4]>,
+    pub alpha: Vec<f64>,
+}
+
+/// The balanced crossing on the active edge from marked `a` to unmarked `b`.
+pub fn balanced_crossing(
+    mesh: &TetMesh,
+    field: &[f64],
+    regions: &[u32],
+    alpha: &[f64],
+    a: u32,
+    b: u32,
+) -> DVec3 {
+    let (pa, pb) = (mesh.points[a as usize], mesh.points[b as usize]);
+    let al = alpha
+        .get(regions[a as usize] as usize)
+        .copied()
+        .unwrap_or(0.0);
+    place::crossing(
+        pb,
+        pa,
+        balanced(field[b as usize], al),
+        balanced(field[a as usize], al),
+        0.0,
+    )
 }
 
 /// Places every surface vertex by `balance.rule` on the signed `field` (positive exactly
@@ -166,7 +295,7 @@ pub fn place_balanced(
     regions: &[u32],
     positions: &mut [DVec3],
     balance: Balance<'_>,
-) -> Vec<[f64; 4]> {
+) -> Balanced {
     let n_regions = regions
         .iter()
         .zip(marked)
@@ -194,19 +323,50 @@ pub fn place_balanced(
             VertexRole::HullPoint { point } => regions[point as usize],
         })
         .collect();
-    // A fan of every polygon, for the volumes the balance is solved on.
+    // The triangles the balance is solved on, with their region.
     let mut fan: Vec<([u32; 3], u32)> = Vec::new();
-    for k in 0..topo.polygon_count() {
-        let poly = topo.polygon(k);
-        let r = vertex_region[poly[0] as usize];
-        for i in 1..poly.len() - 1 {
-            fan.push(([poly[0], poly[i], poly[i + 1]], r));
+    let mut added: &[Added] = &[];
+    match balance.plan {
+        Some(plan) => {
+            let polygon_region: Vec<u32> = (0..topo.polygon_count())
+                .map(|k| regions[polygon_marked_point(topo, k) as usize])
+                .collect();
+            fan = plan
+                .triangles
+                .iter()
+                .zip(&plan.polygon_of)
+                .map(|(&t, &k)| (t, polygon_region[k as usize]))
+                .collect();
+            added = &plan.added;
+        }
+        None => {
+            for k in 0..topo.polygon_count() {
+                let poly = topo.polygon(k);
+                let r = vertex_region[poly[0] as usize];
+                for i in 1..poly.len() - 1 {
+                    fan.push(([poly[0], poly[i], poly[i + 1]], r));
+                }
+            }
         }
     }
-    let volumes = |positions: &[DVec3]| -> Vec<f64> {
+    let base = positions.len();
+    let volumes = |positions: &[DVec3], alpha: &[f64]| -> Vec<f64> {
+        let crossing = |a: u32, b: u32| balanced_crossing(mesh, field, regions, alpha, a, b);
+        let extra: Vec<DVec3> = added
+            .iter()
+            .map(|&a| Plan::added_position(topo, positions, a, &crossing))
+            .collect();
+        let at = |i: u32| {
+            let i = i as usize;
+            if i < base {
+                positions[i]
+            } else {
+                extra[i - base]
+            }
+        };
         let mut v = vec![0.0; n_regions];
         for &(t, r) in &fan {
-            let [a, b, c] = t.map(|i| positions[i as usize]);
+            let [a, b, c] = t.map(at);
             v[r as usize] += a.dot(b.cross(c)) / 6.0;
         }
         v
@@ -228,40 +388,38 @@ pub fn place_balanced(
                 );
                 *p = (balance.rule)(&corners, 0.0);
             });
-        let crossing = |a: u32, b: u32| {
-            let (pa, pb) = (mesh.points[a as usize], mesh.points[b as usize]);
-            let r = regions[a as usize];
-            place::crossing(pb, pa, value(b, r), value(a, r), 0.0)
-        };
+        let crossing = |a: u32, b: u32| balanced_crossing(mesh, field, regions, alpha, a, b);
         place_hull_vertices(topo, mesh, marked, &crossing, positions);
     };
     let target: Vec<f64> = (0..n_regions)
         .map(|r| balance.target.get(r).copied().unwrap_or(0.0))
         .collect();
-    let zero = vec![0.0; n_regions];
-    let mut lo = vec![-BALANCE_LIMIT; n_regions];
-    let mut hi = vec![BALANCE_LIMIT; n_regions];
-    let mut alpha = zero;
+    // Volume grows with the balance (a larger marked side pushes crossings outwards): one
+    // bracketed root search per body, all bodies placed together at each step.
+    let mut search: Vec<RootSearch> = target
+        .iter()
+        .map(|&t| RootSearch::new(BALANCE_LIMIT, BALANCE_TOLERANCE * t.abs()))
+        .collect();
+    let mut alpha = vec![0.0; n_regions];
     for _ in 0..balance.steps {
-        for r in 0..n_regions {
-            alpha[r] = 0.5 * (lo[r] + hi[r]);
+        if search.iter().all(RootSearch::done) {
+            break;
+        }
+        for (a, s) in alpha.iter_mut().zip(&search) {
+            *a = s.next();
         }
         place(&alpha, positions);
-        // Volume grows with the balance: a larger marked side pushes crossings outwards.
-        for (r, v) in volumes(positions).into_iter().enumerate() {
-            if v < target[r] {
-                lo[r] = alpha[r];
-            } else {
-                hi[r] = alpha[r];
-            }
+        for (r, v) in volumes(positions, &alpha).into_iter().enumerate() {
+            search[r].record(alpha[r], v - target[r]);
         }
     }
-    for r in 0..n_regions {
-        alpha[r] = 0.5 * (lo[r] + hi[r]);
+    let best: Vec<f64> = search.iter().map(RootSearch::best).collect();
+    if best != alpha || balance.steps == 0 {
+        alpha = best;
+        place(&alpha, positions);
     }
-    place(&alpha, positions);
     // The balanced field at the corners of every active tetrahedron.
-    topo.roles[..topo.active_tets]
+    let corner_field = topo.roles[..topo.active_tets]
         .par_iter()
         .zip(&vertex_region[..topo.active_tets])
         .map(|(role, &r)| {
@@ -270,7 +428,11 @@ pub fn place_balanced(
             };
             mesh.tets[tet as usize].map(|v| balanced(field[v as usize], alpha[r as usize]))
         })
-        .collect()
+        .collect();
+    Balanced {
+        corner_field,
+        alpha,
+    }
 }
 
 #[cfg(test)]
@@ -279,6 +441,42 @@ mod tests {
 
     use super::*;
     use crate::progress::NoProgress;
+
+    fn solve(g: impl Fn(f64) -> f64, tolerance: f64) -> (f64, usize) {
+        let mut search = RootSearch::new(BALANCE_LIMIT, tolerance);
+        let mut steps = 0;
+        while !search.done() && steps < 12 {
+            let x = search.next();
+            assert!(x.abs() < BALANCE_LIMIT, "{x} outside the limits");
+            search.record(x, g(x));
+            steps += 1;
+        }
+        (search.best(), steps)
+    }
+
+    #[test]
+    fn the_balance_search_finds_roots_near_zero_far_out_and_at_kinks_in_few_steps() {
+        // Smooth and near 0 (the usual body), far out, and a kinked increasing function.
+        for (root, kink) in [(0.03, false), (-0.2, false), (0.8, false), (0.1, true)] {
+            let g = |x: f64| {
+                let d = x - root;
+                if kink && d > 0.0 {
+                    5.0 * d
+                } else {
+                    d + 0.4 * d.powi(3)
+                }
+            };
+            let (x, steps) = solve(g, 1e-7);
+            assert!(
+                (x - root).abs() < 1e-6,
+                "root {root}: found {x} in {steps} steps"
+            );
+            assert!(steps <= 10, "root {root}: {steps} steps");
+        }
+        // No root inside the limits: the search ends at the best end it reached.
+        let (x, _) = solve(|x| x + 2.0, 1e-7);
+        assert!(x < -0.9, "{x}");
+    }
 
     #[test]
     fn the_field_is_the_distance_to_the_other_class_along_the_wells() {

@@ -214,7 +214,17 @@ pub fn extract_shell(
             (values, threshold)
         };
     let regions = mt::marked_regions(mesh, &marked);
+    // The field the balanced placements work on: positive exactly at marked vertices.
+    let grade_field: Vec<f64>;
+    let balance_field = if matches!(placement, Placement::Ibc | Placement::Coi) {
+        grade_field = values.par_iter().map(|&v| v - threshold).collect();
+        &grade_field
+    } else {
+        place_values
+    };
     let mut corner_field = Vec::new();
+    let mut alpha = Vec::new();
+    let mut balance_plan = None;
     if let Placement::Ibc | Placement::Coi | Placement::Distance | Placement::Curvature { .. } =
         placement
     {
@@ -225,30 +235,39 @@ pub fn extract_shell(
         // than MT's) and the distance field leans inwards at convex edges (0/1 bodies
         // 3.6-8.9% small); docs/dmt.md.
         let target = mt::region_volumes(mesh, values, threshold, &regions);
-        let grade_field: Vec<f64>;
-        let field = if matches!(placement, Placement::Distance | Placement::Curvature { .. }) {
-            place_values
+        let field = balance_field;
+        let rule = if placement == Placement::Coi {
+            place::coi
         } else {
-            grade_field = values.par_iter().map(|&v| v - threshold).collect();
-            &grade_field
+            place::ibc
         };
-        corner_field = distance::place_balanced(
-            &topo,
-            mesh,
-            &marked,
-            field,
-            &regions,
-            &mut positions,
-            distance::Balance {
-                target: &target,
-                rule: if placement == Placement::Coi {
-                    place::coi
-                } else {
-                    place::ibc
+        let edge_ends = |a: u32, b: u32| (mesh.points[a as usize], mesh.points[b as usize]);
+        // First the unbalanced placement, to choose how each polygon is cut; then the
+        // balance solved on exactly those triangles (a fan of the twisted polygons between
+        // drill holes misjudges a body's volume by tens of percent).
+        let balance = |positions: &mut [DVec3], plan, steps| {
+            distance::place_balanced(
+                &topo,
+                mesh,
+                &marked,
+                field,
+                &regions,
+                positions,
+                distance::Balance {
+                    target: &target,
+                    rule,
+                    steps,
+                    plan,
                 },
-                steps: BALANCE_STEPS,
-            },
-        );
+            )
+        };
+        let unbalanced = balance(&mut positions, None, 0);
+        drop(unbalanced);
+        let plan = plan_triangulation(&topo, &positions, triangulation, &edge_ends, None);
+        let balanced = balance(&mut positions, Some(&plan), BALANCE_STEPS);
+        corner_field = balanced.corner_field;
+        alpha = balanced.alpha;
+        balance_plan = Some(plan);
     } else {
         place_vertices(
             &topo,
@@ -275,11 +294,42 @@ pub fn extract_shell(
     }
     progress.report(&stage, 0.7);
 
-    let edge_crossing =
-        |a: u32, b: u32| hull_crossing(mesh, place_values, place_threshold, placement, a, b);
+    let edge_crossing = |a: u32, b: u32| {
+        if alpha.is_empty() {
+            hull_crossing(mesh, place_values, place_threshold, placement, a, b)
+        } else {
+            distance::balanced_crossing(mesh, balance_field, &regions, &alpha, a, b)
+        }
+    };
     let edge_ends = |a: u32, b: u32| (mesh.points[a as usize], mesh.points[b as usize]);
-    let (positions, triangles, polygon_of) =
-        triangulate(&topo, positions, triangulation, &edge_crossing, &edge_ends);
+    let (positions, triangles, polygon_of) = match balance_plan {
+        // The output keeps the cut the volumes were balanced on, except where it no longer
+        // suits the final vertices.
+        Some(plan) => {
+            let base = positions.len();
+            let mut realized = plan.realize(&topo, positions, &edge_crossing);
+            let unsuited = if triangulation == Triangulation::MaxMinAngle {
+                plan.unsuited(&topo, &realized, &edge_ends)
+            } else {
+                Vec::new()
+            };
+            if unsuited.contains(&true) {
+                realized.truncate(base);
+                let plan = plan_triangulation(
+                    &topo,
+                    &realized,
+                    triangulation,
+                    &edge_ends,
+                    Some((&plan, &unsuited)),
+                );
+                let positions = plan.realize(&topo, realized, &edge_crossing);
+                (positions, plan.triangles, plan.polygon_of)
+            } else {
+                (realized, plan.triangles, plan.polygon_of)
+            }
+        }
+        None => triangulate(&topo, positions, triangulation, &edge_crossing, &edge_ends),
+    };
     // A body is one connected piece of marked material: its outer shell together with the
     // shells of its cavities (a surface-connectivity split would make each cavity a body
     // of negative volume).
@@ -394,19 +444,176 @@ fn hull_crossing(
     }
 }
 
-/// Cuts every polygon into triangles, keeping orientation. Dual polygons of 4 or more
-/// corners get a centre vertex with [`Triangulation::Star`]; caps are fanned from their
-/// `W_f` vertex, which sees the whole (planar) cap polygon.
+/// Cuts every polygon into triangles, keeping orientation, and places the added vertices.
 fn triangulate(
     topo: &Topology,
-    mut positions: Vec<DVec3>,
+    positions: Vec<DVec3>,
     triangulation: Triangulation,
     edge_crossing: &dyn Fn(u32, u32) -> DVec3,
     edge_ends: &dyn Fn(u32, u32) -> (DVec3, DVec3),
 ) -> (Vec<DVec3>, Vec<[u32; 3]>, Vec<u32>) {
+    let plan = plan_triangulation(topo, &positions, triangulation, edge_ends, None);
+    let positions = plan.realize(topo, positions, edge_crossing);
+    (positions, plan.triangles, plan.polygon_of)
+}
+
+/// A vertex a triangulation adds inside a polygon.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Added {
+    /// The centroid of polygon `k`'s corners.
+    Centroid(u32),
+    /// The crossing on the active edge `(marked, unmarked)`.
+    Crossing(u32, u32),
+}
+
+/// How the polygons are cut into triangles, independent of where the vertices sit: the
+/// triangles' volume can be re-evaluated as the vertices move (the volume balance).
+pub struct Plan {
+    /// Corners index the surface vertices (`< base`) or `added[i - base]`.
+    pub triangles: Vec<[u32; 3]>,
+    /// The polygon each triangle cuts.
+    pub polygon_of: Vec<u32>,
+    pub added: Vec<Added>,
+    /// The number of surface vertices (the first added vertex's index).
+    pub base: usize,
+}
+
+impl Plan {
+    /// Where added vertex `a` sits for these surface vertex `positions`.
+    pub fn added_position(
+        topo: &Topology,
+        positions: &[DVec3],
+        a: Added,
+        edge_crossing: &dyn Fn(u32, u32) -> DVec3,
+    ) -> DVec3 {
+        match a {
+            Added::Centroid(k) => {
+                let poly = topo.polygon(k as usize);
+                poly.iter().map(|&v| positions[v as usize]).sum::<DVec3>() / poly.len() as f64
+            }
+            Added::Crossing(a, b) => edge_crossing(a, b),
+        }
+    }
+
+    /// The triangles of polygon `k` are `ranges[k]..ranges[k + 1]`.
+    fn polygon_ranges(&self, polygons: usize) -> Vec<usize> {
+        let mut ranges = vec![0; polygons + 1];
+        for &k in &self.polygon_of {
+            ranges[k as usize + 1] += 1;
+        }
+        for k in 0..polygons {
+            ranges[k + 1] += ranges[k];
+        }
+        ranges
+    }
+
+    /// Which polygons a [`Triangulation::MaxMinAngle`] cut no longer suits at the
+    /// `realized` positions (surface vertices then added vertices): a triangle folded
+    /// against the polygon's normal, or the polygon's edge no longer passing through it
+    /// once from back to front. Stars around the edge's crossing always suit.
+    fn unsuited(
+        &self,
+        topo: &Topology,
+        realized: &[DVec3],
+        edge_ends: &(dyn Fn(u32, u32) -> (DVec3, DVec3) + Sync),
+    ) -> Vec<bool> {
+        let ranges = self.polygon_ranges(topo.polygon_count());
+        (0..topo.polygon_count())
+            .into_par_iter()
+            .map(|k| {
+                if topo.kinds[k] != PolygonKind::Dual || topo.dual_open[k] {
+                    return false;
+                }
+                let tris = &self.triangles[ranges[k]..ranges[k + 1]];
+                let crossing_star = tris.iter().flatten().any(|&i| {
+                    (i as usize) >= self.base
+                        && matches!(self.added[i as usize - self.base], Added::Crossing(..))
+                });
+                if crossing_star {
+                    return false;
+                }
+                let pts: Vec<DVec3> = topo
+                    .polygon(k)
+                    .iter()
+                    .map(|&v| realized[v as usize])
+                    .collect();
+                let normal = newell_normal(&pts);
+                let at = |t: &[u32; 3]| t.map(|i| realized[i as usize]);
+                let folded = tris.iter().any(|t| {
+                    let [a, b, c] = at(t);
+                    triangle_score(a, b, c, normal) <= 0.0
+                });
+                let (a, b) = topo.dual_edges[k];
+                let (pa, pb) = edge_ends(a, b);
+                folded || !separates(pa, pb, tris.iter().map(at))
+            })
+            .collect()
+    }
+
+    /// `positions` (the surface vertices) followed by the added vertices.
+    pub fn realize(
+        &self,
+        topo: &Topology,
+        mut positions: Vec<DVec3>,
+        edge_crossing: &dyn Fn(u32, u32) -> DVec3,
+    ) -> Vec<DVec3> {
+        debug_assert_eq!(positions.len(), self.base);
+        positions.reserve(self.added.len());
+        for &a in &self.added {
+            let p = Self::added_position(topo, &positions[..self.base], a, edge_crossing);
+            positions.push(p);
+        }
+        positions
+    }
+}
+
+/// Plans the cut of every polygon into triangles, keeping orientation. Dual polygons of 4
+/// or more corners get a centre vertex with [`Triangulation::Star`]; caps are fanned from
+/// their `W_f` vertex, which sees the whole (planar) cap polygon.
+///
+/// With `keep`, polygon `k` keeps its cut from that plan unless `keep.1[k]` says to plan it
+/// again.
+fn plan_triangulation(
+    topo: &Topology,
+    positions: &[DVec3],
+    triangulation: Triangulation,
+    edge_ends: &dyn Fn(u32, u32) -> (DVec3, DVec3),
+    keep: Option<(&Plan, &[bool])>,
+) -> Plan {
+    let base = positions.len();
+    let mut added = Vec::new();
+    let mut add = |a: Added| {
+        added.push(a);
+        (base + added.len() - 1) as u32
+    };
     let mut triangles = Vec::with_capacity(topo.corners.len() * 2);
     let mut polygon_of = Vec::with_capacity(topo.corners.len() * 2);
+    let old_ranges = keep.map(|(old, _)| old.polygon_ranges(topo.polygon_count()));
     for k in 0..topo.polygon_count() {
+        if let (Some((old, replan)), Some(ranges)) = (keep, &old_ranges)
+            && !replan[k]
+        {
+            debug_assert_eq!(old.base, base);
+            // At most one added vertex per polygon.
+            let mut mapped: Option<(u32, u32)> = None;
+            for t in &old.triangles[ranges[k]..ranges[k + 1]] {
+                triangles.push(t.map(|i| {
+                    if (i as usize) < base {
+                        return i;
+                    }
+                    match mapped {
+                        Some((from, to)) if from == i => to,
+                        _ => {
+                            let to = add(old.added[i as usize - base]);
+                            mapped = Some((i, to));
+                            to
+                        }
+                    }
+                }));
+            }
+            polygon_of.resize(triangles.len(), k as u32);
+            continue;
+        }
         let poly = topo.polygon(k);
         let n = poly.len();
         let before = triangles.len();
@@ -471,27 +678,23 @@ fn triangulate(
                         triangles.push([poly[a], poly[b], poly[c]]);
                     }
                 } else {
-                    let centre = if centroid_score > 0.0 {
-                        centroid
+                    let c = add(if centroid_score > 0.0 {
+                        Added::Centroid(k as u32)
                     } else {
-                        edge_crossing(a, b)
-                    };
-                    let c = positions.len() as u32;
-                    positions.push(centre);
+                        Added::Crossing(a, b)
+                    });
                     for i in 0..n {
                         triangles.push([c, poly[i], poly[(i + 1) % n]]);
                     }
                 }
             }
             PolygonKind::Dual if triangulation != Triangulation::Fan => {
-                let centre = if triangulation == Triangulation::EdgeCrossing {
+                let c = add(if triangulation == Triangulation::EdgeCrossing {
                     let (a, b) = topo.dual_edges[k];
-                    edge_crossing(a, b)
+                    Added::Crossing(a, b)
                 } else {
-                    poly.iter().map(|&v| positions[v as usize]).sum::<DVec3>() / n as f64
-                };
-                let c = positions.len() as u32;
-                positions.push(centre);
+                    Added::Centroid(k as u32)
+                });
                 for i in 0..n {
                     triangles.push([c, poly[i], poly[(i + 1) % n]]);
                 }
@@ -519,7 +722,12 @@ fn triangulate(
         polygon_of.resize(triangles.len(), k as u32);
         debug_assert!(triangles.len() > before);
     }
-    (positions, triangles, polygon_of)
+    Plan {
+        triangles,
+        polygon_of,
+        added,
+        base,
+    }
 }
 
 /// Newell's normal of a (non-planar) polygon: twice its vector area.
@@ -677,7 +885,7 @@ fn split_bodies(
 
 /// A marked mesh vertex of polygon `k`: the marked end of a dual polygon's edge, or a
 /// marked hull corner of a cap.
-fn polygon_marked_point(topo: &Topology, k: usize) -> u32 {
+pub(crate) fn polygon_marked_point(topo: &Topology, k: usize) -> u32 {
     match topo.kinds[k] {
         PolygonKind::Dual => topo.dual_edges[k].0,
         PolygonKind::Cap => topo

@@ -494,7 +494,8 @@ pub fn shell(
 }
 
 /// Connected pieces of the marked region: `regions[v]` is the same number for marked
-/// vertices joined through marked material, [`NO_REGION`] for unmarked or unused vertices.
+/// vertices joined through marked material (ids 0, 1, .. in the order of each piece's
+/// first vertex), [`NO_REGION`] for unmarked or unused vertices.
 ///
 /// The marked part of a tetrahedron (linear interpolation) is convex, so all marked corners
 /// of one tetrahedron are in one piece, and pieces of neighbouring tetrahedra meet exactly
@@ -533,10 +534,18 @@ pub fn marked_regions(mesh: &TetMesh, marked: &[bool]) -> Vec<u32> {
             used[*v as usize] = true;
         }
     }
+    // Compact ids, numbered in the order of each region's first vertex.
+    let mut id = vec![NO_REGION; mesh.points.len()];
+    let mut next = 0;
     (0..mesh.points.len() as u32)
         .map(|v| {
             if marked[v as usize] && used[v as usize] {
-                root(&mut parent, v)
+                let r = root(&mut parent, v) as usize;
+                if id[r] == NO_REGION {
+                    id[r] = next;
+                    next += 1;
+                }
+                id[r]
             } else {
                 NO_REGION
             }
@@ -578,8 +587,19 @@ pub fn region_volumes(mesh: &TetMesh, values: &[f64], threshold: f64, regions: &
                     let t = ((f[i] - threshold) / (f[i] - f[j])).clamp(0.0, 1.0);
                     p[i] + (p[j] - p[i]) * t
                 };
-                let inside: Vec<usize> = (0..4).filter(|&i| marked[i]).collect();
-                let outside: Vec<usize> = (0..4).filter(|&i| !marked[i]).collect();
+                // The marked corners first, then the others.
+                let mut order = [0usize; 4];
+                let (mut lo, mut hi) = (0, 4);
+                for (i, &mk) in marked.iter().enumerate() {
+                    if mk {
+                        order[lo] = i;
+                        lo += 1;
+                    } else {
+                        hi -= 1;
+                        order[hi] = i;
+                    }
+                }
+                let (inside, outside) = order.split_at(m);
                 let whole = cone(p[0], p[1], p[2], p[3]);
                 let volume = match m {
                     4 => whole,
