@@ -736,11 +736,25 @@ fn newell_normal(pts: &[DVec3]) -> DVec3 {
     (0..n).fold(DVec3::ZERO, |acc, i| acc + pts[i].cross(pts[(i + 1) % n]))
 }
 
-/// A triangle's smallest angle, or -1 when it faces against `normal` (so a fold scores
-/// below every triangle that does not fold).
+/// The sine of a triangle's smallest angle (at most 60 degrees, so the sine orders
+/// triangles as the angle does, without trigonometry), or -1 when it faces against
+/// `normal` or is degenerate (so a fold scores below every triangle that does not fold).
 fn triangle_score(a: DVec3, b: DVec3, c: DVec3, normal: DVec3) -> f64 {
-    if (b - a).cross(c - a).dot(normal) > 0.0 {
-        measure::min_angle_deg(a, b, c)
+    let cross = (b - a).cross(c - a);
+    if cross.dot(normal) <= 0.0 {
+        return -1.0;
+    }
+    // Twice the area over the two longer edges, which meet at the smallest angle.
+    let [e0, e1, e2] = [
+        (b - a).length_squared(),
+        (c - b).length_squared(),
+        (a - c).length_squared(),
+    ];
+    let shortest = e0.min(e1).min(e2);
+    let longer = e0.max(e1).max(e2) * (e0 + e1 + e2 - e0.max(e1).max(e2) - shortest);
+    let sine = cross.length() / longer.sqrt();
+    if sine.is_finite() {
+        sine.min(1.0)
     } else {
         -1.0
     }
@@ -799,9 +813,12 @@ fn max_min_angle_triangulation(pts: &[DVec3], normal: DVec3) -> (f64, Vec<[usize
             let j = i + len;
             let mut b = f64::NEG_INFINITY;
             for k in i + 1..j {
-                let v = best[i * n + k]
-                    .min(best[k * n + j])
-                    .min(score(pts[i], pts[k], pts[j]));
+                let v = best[i * n + k].min(best[k * n + j]);
+                if v <= b {
+                    // The new triangle cannot raise this split above the best so far.
+                    continue;
+                }
+                let v = v.min(score(pts[i], pts[k], pts[j]));
                 if v > b {
                     b = v;
                     split[i * n + j] = k;
