@@ -165,9 +165,10 @@ const BALANCE_STEPS: usize = 12;
 /// How the (non-planar) dual polygons are cut into triangles.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Triangulation {
-    /// By diagonals, the triangulation whose smallest angle is largest (dynamic programming
-    /// per polygon), or the centroid star where that has the larger smallest angle. The
-    /// default, chosen by measurement (docs/dmt.md): fewest slivers.
+    /// By diagonals, the triangulation with the fewest slivers (smallest angle under 10
+    /// degrees) and, among those, the largest smallest angle (dynamic programming per
+    /// polygon), or the centroid star where that scores better. The default, chosen by
+    /// measurement (docs/dmt.md): fewest slivers.
     #[default]
     MaxMinAngle,
     /// A star around the polygon's centroid (one added vertex per polygon of 4 or more
@@ -657,28 +658,29 @@ fn plan_triangulation(
                 let (mut best, diagonals) = if n == 3 {
                     let t = [0, 1, 2];
                     let score = triangle_score(pts[0], pts[1], pts[2], normal);
-                    (score, vec![t])
+                    (CutScore::triangle(score), vec![t])
                 } else {
                     max_min_angle_triangulation(&pts, normal)
                 };
-                if best > 0.0 && !separates(pa, pb, diagonals.iter().map(|t| t.map(|i| pts[i]))) {
-                    best = -1.0;
+                if !best.folded() && !separates(pa, pb, diagonals.iter().map(|t| t.map(|i| pts[i])))
+                {
+                    best = CutScore::FOLDED;
                 }
                 let pts = &pts;
                 let star = |centre: DVec3| (0..n).map(move |i| [centre, pts[i], pts[(i + 1) % n]]);
                 let centroid = pts.iter().sum::<DVec3>() / n as f64;
                 let mut centroid_score = star(centroid)
-                    .map(|[c, p, q]| triangle_score(c, p, q, normal))
-                    .fold(f64::INFINITY, f64::min);
-                if centroid_score > 0.0 && !separates(pa, pb, star(centroid)) {
-                    centroid_score = -1.0;
+                    .map(|[c, p, q]| CutScore::triangle(triangle_score(c, p, q, normal)))
+                    .fold(CutScore::EMPTY, CutScore::join);
+                if !centroid_score.folded() && !separates(pa, pb, star(centroid)) {
+                    centroid_score = CutScore::FOLDED;
                 }
-                if best > 0.0 && best >= centroid_score {
+                if !best.folded() && !centroid_score.better_than(best) {
                     for [a, b, c] in diagonals {
                         triangles.push([poly[a], poly[b], poly[c]]);
                     }
                 } else {
-                    let c = add(if centroid_score > 0.0 {
+                    let c = add(if !centroid_score.folded() {
                         Added::Centroid(k as u32)
                     } else {
                         Added::Crossing(a, b)
@@ -802,29 +804,32 @@ fn separates(a: DVec3, b: DVec3, triangles: impl Iterator<Item = [DVec3; 3]>) ->
 /// triangle angle is largest among those with no triangle facing against the polygon's
 /// normal (dynamic programming over sub-polygons, O(n^3)); triangles as corner indices
 /// wound like the polygon, and that smallest angle (-1 when every triangulation folds).
-fn max_min_angle_triangulation(pts: &[DVec3], normal: DVec3) -> (f64, Vec<[usize; 3]>) {
+fn max_min_angle_triangulation(pts: &[DVec3], normal: DVec3) -> (CutScore, Vec<[usize; 3]>) {
     let n = pts.len();
-    let score = |a, b, c| triangle_score(a, b, c, normal);
-    // best[i][j]: best smallest angle over triangulations of the sub-polygon i..=j.
-    let mut best = vec![f64::INFINITY; n * n];
+    let score = |a, b, c| CutScore::triangle(triangle_score(a, b, c, normal));
+    // best[i][j]: the best cut of the sub-polygon i..=j.
+    let mut best = vec![CutScore::EMPTY; n * n];
     let mut split = vec![0usize; n * n];
     for len in 2..n {
         for i in 0..n - len {
             let j = i + len;
-            let mut b = f64::NEG_INFINITY;
+            let mut b: Option<CutScore> = None;
             for k in i + 1..j {
-                let v = best[i * n + k].min(best[k * n + j]);
-                if v <= b {
-                    // The new triangle cannot raise this split above the best so far.
+                let v = best[i * n + k].join(best[k * n + j]);
+                if let Some(b) = b
+                    && !b.folded()
+                    && !v.could_beat(b)
+                {
+                    // The new triangle cannot make this split better than the best so far.
                     continue;
                 }
-                let v = v.min(score(pts[i], pts[k], pts[j]));
-                if v > b {
-                    b = v;
+                let v = v.join(score(pts[i], pts[k], pts[j]));
+                if b.is_none_or(|b| v.better_than(b)) {
+                    b = Some(v);
                     split[i * n + j] = k;
                 }
             }
-            best[i * n + j] = b;
+            best[i * n + j] = b.expect("a sub-polygon of 3 or more corners has a split");
         }
     }
     let mut out = Vec::with_capacity(n - 2);
@@ -839,6 +844,66 @@ fn max_min_angle_triangulation(pts: &[DVec3], normal: DVec3) -> (f64, Vec<[usize
         stack.push((k, j));
     }
     (best[n - 1], out)
+}
+
+/// Triangles whose smallest angle is under 10 degrees count as slivers (its sine).
+const SLIVER_SINE: f64 = 0.173_648_177_666_930_33;
+
+/// How good a cut of a polygon is: no triangle folded against the polygon's normal, then
+/// the fewest slivers, then the largest smallest angle (as a sine, see [`triangle_score`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct CutScore {
+    slivers: u32,
+    min: f64,
+}
+
+impl CutScore {
+    const EMPTY: Self = Self {
+        slivers: 0,
+        min: f64::INFINITY,
+    };
+    const FOLDED: Self = Self {
+        slivers: 0,
+        min: -1.0,
+    };
+
+    fn triangle(score: f64) -> Self {
+        Self {
+            slivers: u32::from(score < SLIVER_SINE),
+            min: score,
+        }
+    }
+
+    fn join(self, other: Self) -> Self {
+        Self {
+            slivers: self.slivers + other.slivers,
+            min: self.min.min(other.min),
+        }
+    }
+
+    fn folded(self) -> bool {
+        self.min <= 0.0
+    }
+
+    fn better_than(self, other: Self) -> bool {
+        match (self.folded(), other.folded()) {
+            (false, true) => true,
+            (true, false) => false,
+            (true, true) => self.min > other.min,
+            (false, false) => {
+                self.slivers < other.slivers
+                    || (self.slivers == other.slivers && self.min > other.min)
+            }
+        }
+    }
+
+    /// Whether adding one more triangle to this partial cut can still beat `other` (which
+    /// is not folded): joining only adds slivers and lowers the smallest angle.
+    fn could_beat(self, other: Self) -> bool {
+        !self.folded()
+            && (self.slivers < other.slivers
+                || (self.slivers == other.slivers && self.min > other.min))
+    }
 }
 
 /// Splits the triangles into connected bodies with compact vertex arrays and measures,
