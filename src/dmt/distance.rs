@@ -14,7 +14,7 @@ use rayon::prelude::*;
 
 use super::extract::{Topology, VertexRole, place_hull_vertices};
 use super::place::{self, SortedCorners};
-use super::{Added, Plan, polygon_marked_point};
+use super::{Plan, polygon_marked_point};
 use crate::tet::TetMesh;
 
 /// Vertex -> incident tetrahedra (compressed rows).
@@ -142,11 +142,10 @@ pub struct Balance<'a> {
     pub target: &'a [f64],
     /// The placement rule applied to the balanced field (threshold 0).
     pub rule: fn(&SortedCorners, f64) -> DVec3,
-    /// Bisection steps (precision `2^-steps` of the balance's range).
+    /// At most this many placements.
     pub steps: usize,
-    /// The triangulation whose volumes are balanced; without one, a fan of every polygon
-    /// stands in for it (a rough guess on twisted polygons: a first pass only).
-    pub plan: Option<&'a Plan>,
+    /// The triangulation whose volumes are balanced.
+    pub plan: &'a Plan,
 }
 
 /// A body's volume is balanced to this share of its target.
@@ -324,35 +323,20 @@ pub fn place_balanced(
         })
         .collect();
     // The triangles the balance is solved on, with their region.
-    let mut fan: Vec<([u32; 3], u32)> = Vec::new();
-    let mut added: &[Added] = &[];
-    match balance.plan {
-        Some(plan) => {
-            let polygon_region: Vec<u32> = (0..topo.polygon_count())
-                .map(|k| regions[polygon_marked_point(topo, k) as usize])
-                .collect();
-            fan = plan
-                .triangles
-                .iter()
-                .zip(&plan.polygon_of)
-                .map(|(&t, &k)| (t, polygon_region[k as usize]))
-                .collect();
-            added = &plan.added;
-        }
-        None => {
-            for k in 0..topo.polygon_count() {
-                let poly = topo.polygon(k);
-                let r = vertex_region[poly[0] as usize];
-                for i in 1..poly.len() - 1 {
-                    fan.push(([poly[0], poly[i], poly[i + 1]], r));
-                }
-            }
-        }
-    }
+    let polygon_region: Vec<u32> = (0..topo.polygon_count())
+        .map(|k| regions[polygon_marked_point(topo, k) as usize])
+        .collect();
+    let plan = balance.plan;
+    let triangle_region: Vec<u32> = plan
+        .polygon_of
+        .iter()
+        .map(|&k| polygon_region[k as usize])
+        .collect();
     let base = positions.len();
     let volumes = |positions: &[DVec3], alpha: &[f64]| -> Vec<f64> {
         let crossing = |a: u32, b: u32| balanced_crossing(mesh, field, regions, alpha, a, b);
-        let extra: Vec<DVec3> = added
+        let extra: Vec<DVec3> = plan
+            .added
             .iter()
             .map(|&a| Plan::added_position(topo, positions, a, &crossing))
             .collect();
@@ -365,7 +349,7 @@ pub fn place_balanced(
             }
         };
         let mut v = vec![0.0; n_regions];
-        for &(t, r) in &fan {
+        for (t, &r) in plan.triangles.iter().zip(&triangle_region) {
             let [a, b, c] = t.map(at);
             v[r as usize] += a.dot(b.cross(c)) / 6.0;
         }
@@ -414,7 +398,7 @@ pub fn place_balanced(
         }
     }
     let best: Vec<f64> = search.iter().map(RootSearch::best).collect();
-    if best != alpha || balance.steps == 0 {
+    if best != alpha {
         alpha = best;
         place(&alpha, positions);
     }

@@ -158,8 +158,8 @@ pub enum DmtError {
     Cancelled,
 }
 
-/// Bisection steps of the bodies' volume balance (precision 2^-12 of its range: far below
-/// the volume differences it corrects).
+/// At most this many placements in the bodies' volume balance (`distance::RootSearch`
+/// usually needs far fewer).
 const BALANCE_STEPS: usize = 12;
 
 /// How the (non-planar) dual polygons are cut into triangles.
@@ -223,62 +223,59 @@ pub fn extract_shell(
     } else {
         place_values
     };
+    let balanced_placement = placement != Placement::Midpoint;
+    // The unbalanced placement; a balanced one starts from it to choose how each polygon is
+    // cut.
+    let (first_values, first_threshold) = if balanced_placement {
+        (balance_field, 0.0)
+    } else {
+        (place_values, place_threshold)
+    };
+    place_vertices(
+        &topo,
+        mesh,
+        first_values,
+        &marked,
+        first_threshold,
+        placement,
+        &mut positions,
+    );
+    let edge_ends = |a: u32, b: u32| (mesh.points[a as usize], mesh.points[b as usize]);
     let mut corner_field = Vec::new();
     let mut alpha = Vec::new();
     let mut balance_plan = None;
-    if let Placement::Ibc | Placement::Coi | Placement::Distance | Placement::Curvature { .. } =
-        placement
-    {
+    if balanced_placement {
         // Each body keeps its placement's shape and the volume of the linear
         // interpolation's superlevel set, the volume marching tetrahedra encloses on the
         // same tetrahedra (for 0/1 data: crossings at edge midpoints). Unbalanced, DMT's
         // polygons are chords across convex surfaces (grade bodies 0.1-0.3 points smaller
         // than MT's) and the distance field leans inwards at convex edges (0/1 bodies
-        // 3.6-8.9% small); docs/dmt.md.
-        let target = mt::region_volumes(mesh, values, threshold, &regions);
-        let field = balance_field;
-        let rule = if placement == Placement::Coi {
-            place::coi
-        } else {
-            place::ibc
-        };
-        let edge_ends = |a: u32, b: u32| (mesh.points[a as usize], mesh.points[b as usize]);
-        // First the unbalanced placement, to choose how each polygon is cut; then the
-        // balance solved on exactly those triangles (a fan of the twisted polygons between
+        // 3.6-8.9% small); docs/dmt.md. The balance is solved on exactly the triangles of
+        // the cut chosen for the unbalanced vertices (a fan of the twisted polygons between
         // drill holes misjudges a body's volume by tens of percent).
-        let balance = |positions: &mut [DVec3], plan, steps| {
-            distance::place_balanced(
-                &topo,
-                mesh,
-                &marked,
-                field,
-                &regions,
-                positions,
-                distance::Balance {
-                    target: &target,
-                    rule,
-                    steps,
-                    plan,
-                },
-            )
-        };
-        let unbalanced = balance(&mut positions, None, 0);
-        drop(unbalanced);
+        let target = mt::region_volumes(mesh, values, threshold, &regions);
         let plan = plan_triangulation(&topo, &positions, triangulation, &edge_ends, None);
-        let balanced = balance(&mut positions, Some(&plan), BALANCE_STEPS);
+        let balanced = distance::place_balanced(
+            &topo,
+            mesh,
+            &marked,
+            balance_field,
+            &regions,
+            &mut positions,
+            distance::Balance {
+                target: &target,
+                rule: if placement == Placement::Coi {
+                    place::coi
+                } else {
+                    place::ibc
+                },
+                steps: BALANCE_STEPS,
+                plan: &plan,
+            },
+        );
         corner_field = balanced.corner_field;
         alpha = balanced.alpha;
         balance_plan = Some(plan);
-    } else {
-        place_vertices(
-            &topo,
-            mesh,
-            place_values,
-            &marked,
-            place_threshold,
-            placement,
-            &mut positions,
-        );
     }
     if let Placement::Curvature { lattice } = placement {
         curvature::optimize(
@@ -302,7 +299,6 @@ pub fn extract_shell(
             distance::balanced_crossing(mesh, balance_field, &regions, &alpha, a, b)
         }
     };
-    let edge_ends = |a: u32, b: u32| (mesh.points[a as usize], mesh.points[b as usize]);
     let (positions, triangles, polygon_of) = match balance_plan {
         // The output keeps the cut the volumes were balanced on, except where it no longer
         // suits the final vertices.
