@@ -7,8 +7,12 @@
 //! symmetric (`nbrs[t][i] = t2 * 4 + j` and `nbrs[t2][j] = t * 4 + i`).
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use std::cmp::Ordering;
+use std::ops::Range;
+use std::sync::atomic::AtomicU32;
+use std::sync::atomic::Ordering::Relaxed;
 
 use super::exact_int::Grid;
 use super::predicates::{self, Sign};
@@ -17,18 +21,53 @@ use super::{NO_NEIGHBOUR, TetError, TetMesh};
 use crate::progress::Progress;
 
 /// The vertex at infinity of ghost tetrahedra (never in a finished [`TetMesh`]).
-const INF: u32 = u32::MAX;
+const INF: u32 = VERTEX_MASK;
 /// `tets[t][0]` of a free slot.
-const DEAD: u32 = u32::MAX - 1;
+const DEAD: u32 = VERTEX_MASK - 1;
+/// The bits of `Cell::v` that hold a vertex id; the top bit of `v[0]` marks a
+/// tetrahedron of the current cavity, that of `v[1]` one tested against the current point
+/// and kept (marks in the cell itself, which the search reads anyway: no other memory).
+const VERTEX_MASK: u32 = (1 << 31) - 1;
+/// The mark bit of `Cell::v[0]` and `Cell::v[1]`.
+const MARK: u32 = 1 << 31;
 /// Largest number of distinct points (vertex ids stay below [`DEAD`]).
-pub const MAX_POINTS: usize = (u32::MAX - 2) as usize;
+pub const MAX_POINTS: usize = DEAD as usize;
 /// Insertions between two progress reports / cancellation checks.
 const CHECK_EVERY: usize = 4096;
 /// Empty slot of the edge table.
 const EMPTY: u64 = u64::MAX;
+/// Zones (and workers) of the parallel insertion. Fixed, not taken from the machine, so
+/// the output (down to the order of the tetrahedra) is the same on any number of threads.
+const ZONES: usize = 2;
+/// Point sets below this size are inserted sequentially.
+const PARALLEL_MIN_POINTS: usize = 50_000;
+/// BRIO rounds below this size are inserted sequentially.
+const PARALLEL_MIN_ROUND: usize = 8192;
+/// Largest piece of a round inserted in parallel at once (between sequential passes).
+const CHUNK_POINTS: usize = 1 << 16;
+/// Fewest vertices given up by a parallel pass worth a second one.
+const SECOND_PASS_MIN: usize = 1024;
+/// Slots handed to a worker at a time beyond what it is expected to need.
+const SLOT_BATCH: usize = 1024;
+/// Tetrahedra searched for a worker's start in its zone.
+const ZONE_START_SEARCH: usize = 256;
 
 /// The Delaunay tetrahedralization of `points`; see [`super::delaunay`].
-pub fn build(mut points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh, TetError> {
+pub fn build(points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh, TetError> {
+    let zones = if points.len() >= PARALLEL_MIN_POINTS {
+        ZONES
+    } else {
+        1
+    };
+    build_in_zones(points, zones, progress)
+}
+
+/// [`build`] with `zones` workers in the parallel chunks (1: all sequential).
+fn build_in_zones(
+    mut points: Vec<DVec3>,
+    zones: usize,
+    progress: &dyn Progress,
+) -> Result<TetMesh, TetError> {
     if points.len() > MAX_POINTS {
         return Err(TetError::TooManyPoints {
             count: points.len(),
@@ -51,7 +90,7 @@ pub fn build(mut points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh,
     }
     // Vertices are numbered in insertion order, so the points the construction touches
     // one after the other are neighbours in memory too.
-    let mut order = brio_hilbert_order(&points);
+    let (mut order, rounds) = brio_hilbert_order(&points);
     // In place (no second copy of the points): points[k] = old points[order[k]], then
     // order becomes its inverse, the new id of each old vertex.
     let mut done = vec![0u64; points.len().div_ceil(64)];
@@ -71,7 +110,7 @@ pub fn build(mut points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh,
     for p in &mut points {
         *p -= shift;
     }
-    let built = Builder::run(&points, progress);
+    let built = Builder::run(&points, &rounds, zones, progress);
     for p in &mut points {
         *p += shift;
     }
@@ -189,19 +228,73 @@ fn exact_shift(points: &[DVec3]) -> DVec3 {
     shift
 }
 
-/// One tetrahedron during construction: 32 bytes, aligned so that its vertices and
-/// neighbour links share one cache line (the cavity search reads both together).
-#[derive(Debug, Clone, Copy)]
+/// One tetrahedron during construction: 32 bytes, its vertices and neighbour links side by
+/// side (the cavity search reads both together). Relaxed atomics, so that the workers of a
+/// parallel chunk can share the array without `unsafe`: on x86-64 and AArch64 a relaxed
+/// load or store is an ordinary one, and the zones (see [`Zone`]) keep every cell written
+/// by one worker out of every other worker's reach, so no value is ever raced for.
+#[derive(Debug)]
 #[repr(C, align(16))]
 struct Cell {
     /// Vertex ids; ghosts have [`INF`] last; `[DEAD, ..]` for free slots.
-    v: [u32; 4],
+    v: [AtomicU32; 4],
     /// `t2 * 4 + j` across the face opposite vertex `i`.
-    n: [u32; 4],
+    n: [AtomicU32; 4],
 }
 
-/// Construction state: flat arrays of tetrahedra and reused buffers.
-struct Builder<'a> {
+impl Cell {
+    fn dead() -> Cell {
+        Cell {
+            v: [DEAD; 4].map(AtomicU32::new),
+            n: [NO_NEIGHBOUR; 4].map(AtomicU32::new),
+        }
+    }
+
+    #[inline]
+    fn verts(&self) -> [u32; 4] {
+        [0, 1, 2, 3].map(|i| self.v[i].load(Relaxed) & VERTEX_MASK)
+    }
+
+    /// Sets (`on`) or clears the mark bit of `v[i]` (`i` 0: in the cavity, 1: kept).
+    #[inline]
+    fn mark(&self, i: usize, on: bool) {
+        let x = self.v[i].load(Relaxed);
+        self.v[i].store(if on { x | MARK } else { x & !MARK }, Relaxed);
+    }
+
+    #[inline]
+    fn links(&self) -> [u32; 4] {
+        [0, 1, 2, 3].map(|i| self.n[i].load(Relaxed))
+    }
+
+    #[inline]
+    fn set_verts(&self, v: [u32; 4]) {
+        for (a, x) in self.v.iter().zip(v) {
+            a.store(x, Relaxed);
+        }
+    }
+
+    #[inline]
+    fn set_links(&self, n: [u32; 4]) {
+        for (a, x) in self.n.iter().zip(n) {
+            a.store(x, Relaxed);
+        }
+    }
+
+    #[inline]
+    fn is_dead(&self) -> bool {
+        self.v[0].load(Relaxed) & VERTEX_MASK == DEAD
+    }
+}
+
+/// Writes `link` into the face slot it names the other side of: `cells[t2].n[j]`.
+#[inline]
+fn set_link(cells: &[Cell], at: u32, link: u32) {
+    cells[(at >> 2) as usize].n[(at & 3) as usize].store(link, Relaxed);
+}
+
+/// The points and the predicates on them, shared read-only by the workers.
+struct Geometry<'a> {
     pts: &'a [DVec3],
     /// The points as integers on one binary grid, when they share one (lattices, UTM
     /// well data): exact predicates then skip the per-call float-to-integer conversion.
@@ -209,21 +302,84 @@ struct Builder<'a> {
     /// With a grid (where co-spherical ties are common): the lexicographic rank of each
     /// vertex, so the symbolic perturbation compares integers. Empty otherwise.
     lex_rank: Vec<u32>,
-    /// The tetrahedra, vertices and neighbour links side by side.
-    cells: Vec<Cell>,
-    free: Vec<u32>,
-    /// Bit per tetrahedron: in the current cavity.
-    in_cavity: Vec<u64>,
-    /// Bit per tetrahedron: tested against the current point and not in conflict.
-    tested: Vec<u64>,
+}
+
+/// The vertices a worker may remove tetrahedra of: those with `lo <= p[axis] < hi`, or
+/// every vertex including the infinite one ([`Zone::ALL`], the sequential passes).
+///
+/// Why this makes the parallel chunks safe: a worker deletes (and writes over) only
+/// tetrahedra whose four vertices are in its zone, and writes the neighbour link of a
+/// tetrahedron only when it shares a face with one of those, so every tetrahedron it
+/// writes has at least three vertices in its zone. It reads only tetrahedra it reached
+/// through a face of one of its own (at least three vertices in its zone) or the start
+/// the sequential driver found for it. Zones are disjoint, so no tetrahedron one worker
+/// writes is read or written by another during the chunk; an insertion that would need
+/// one outside its zone is given up before it changes anything and done in the
+/// sequential pass after the chunk. What each worker does is thus independent of the
+/// others' timing, and the result is the same on any number of threads.
+#[derive(Debug, Clone, Copy)]
+struct Zone {
+    all: bool,
+    axis: usize,
+    lo: f64,
+    hi: f64,
+}
+
+impl Zone {
+    const ALL: Zone = Zone {
+        all: true,
+        axis: 0,
+        lo: f64::NEG_INFINITY,
+        hi: f64::INFINITY,
+    };
+
+    #[inline]
+    fn owns_vertex(&self, pts: &[DVec3], u: u32) -> bool {
+        match pts.get(u as usize) {
+            Some(p) => {
+                let c = p[self.axis];
+                self.lo <= c && c < self.hi
+            }
+            None => false,
+        }
+    }
+
+    /// May the worker of this zone remove the tetrahedron `tv`?
+    #[inline]
+    fn owns(&self, pts: &[DVec3], tv: [u32; 4]) -> bool {
+        self.all || tv.iter().all(|&u| self.owns_vertex(pts, u))
+    }
+}
+
+/// Why an insertion was not done.
+enum Missed {
+    /// It needs a tetrahedron outside the worker's zone (or none of its zone to start
+    /// from).
+    Foreign,
+    /// It needs this many more fresh slots than the worker holds.
+    Slots(usize),
+}
+
+/// One inserting thread's state: reused buffers, its free slots and its place in the mesh.
+struct Worker {
+    /// Tetrahedra the current cavity search tested and kept (marked `v[1]`).
+    kept: Vec<u32>,
     cavity: Vec<u32>,
-    tested_list: Vec<u32>,
     /// New tetrahedra: vertices, apex position, link to the outside of the cavity.
     pending: Vec<([u32; 4], u32, u32)>,
     new_tets: Vec<u32>,
     edge_table: Vec<(u64, u32)>,
+    /// Slots freed by this worker (dead cells), used before `fresh`.
+    free: Vec<u32>,
+    /// Never used slots handed to this worker by the driver (dead cells).
+    fresh: Range<u32>,
+    /// A live tetrahedron to start the next walk from.
     last: u32,
     rng: u64,
+    /// Vertices of the current chunk this worker gave up (for the sequential pass).
+    deferred: Vec<u32>,
+    /// Vertices of the current chunk to insert, in insertion order.
+    todo: Vec<u32>,
 }
 
 #[inline]
@@ -241,56 +397,7 @@ fn set_bit(bits: &mut [u64], t: u32, on: bool) {
     }
 }
 
-impl<'a> Builder<'a> {
-    #[allow(clippy::type_complexity)]
-    fn run(
-        pts: &'a [DVec3],
-        progress: &dyn Progress,
-    ) -> Result<(Vec<[u32; 4]>, Vec<[u32; 4]>), TetError> {
-        let first = initial_simplex(pts)?;
-        // Uniform points give ~6.7 tetrahedra per point; pages are touched only when used.
-        let estimate = pts.len().saturating_mul(7) + 64;
-        let mut b = Builder {
-            pts,
-            grid: None,
-            lex_rank: Vec::new(),
-            cells: Vec::with_capacity(estimate),
-            free: Vec::new(),
-            // Sized once for the estimate (zeroed pages are not resident until written):
-            // growing them step by step would leave the outgrown copies resident.
-            in_cavity: vec![0; estimate.div_ceil(64)],
-            tested: vec![0; estimate.div_ceil(64)],
-            cavity: Vec::new(),
-            tested_list: Vec::new(),
-            pending: Vec::new(),
-            new_tets: Vec::new(),
-            edge_table: Vec::new(),
-            last: 0,
-            rng: 0x2545_F491_4F6C_DD1D,
-        };
-        b.grid = Grid::new(pts);
-        if b.grid.is_some() {
-            b.lex_rank = lex_ranks(pts);
-        }
-        b.start(first);
-        let total = pts.len();
-        for v in 0..total as u32 {
-            if (v as usize).is_multiple_of(CHECK_EVERY) {
-                if progress.is_cancelled() {
-                    return Err(TetError::Cancelled);
-                }
-                progress.report("tetrahedralize", v as f64 / total as f64);
-            }
-            if !first.contains(&v) {
-                b.insert(v);
-            }
-        }
-        progress.report("tetrahedralize", 1.0);
-        let cells = std::mem::take(&mut b.cells);
-        drop(b);
-        Ok(Builder::finish(cells))
-    }
-
+impl Geometry<'_> {
     #[inline]
     fn p(&self, v: u32) -> DVec3 {
         self.pts[v as usize]
@@ -366,89 +473,11 @@ impl<'a> Builder<'a> {
         false
     }
 
+    /// Does vertex `v` conflict with the tetrahedron of vertices `tv` (inside its
+    /// perturbed circumsphere, or for a ghost, strictly beyond its hull face or on it
+    /// inside the face's circumcircle)?
     #[inline]
-    fn next_random(&mut self) -> u32 {
-        // xorshift64
-        self.rng ^= self.rng << 13;
-        self.rng ^= self.rng >> 7;
-        self.rng ^= self.rng << 17;
-        (self.rng >> 32) as u32
-    }
-
-    fn alloc(&mut self) -> u32 {
-        if let Some(t) = self.free.pop() {
-            return t;
-        }
-        let t = self.cells.len() as u32;
-        self.cells.push(Cell {
-            v: [DEAD; 4],
-            n: [NO_NEIGHBOUR; 4],
-        });
-        let words = self.cells.len().div_ceil(64);
-        if self.in_cavity.len() < words {
-            self.in_cavity.resize(words, 0);
-            self.tested.resize(words, 0);
-        }
-        t
-    }
-
-    /// The first tetrahedron and its four ghosts.
-    fn start(&mut self, [a, b, c, d]: [u32; 4]) {
-        let (a, b) = if self.orient(a, b, c, d) == Sign::Positive {
-            (a, b)
-        } else {
-            (b, a)
-        };
-        let finite = [a, b, c, d];
-        let t0 = self.alloc();
-        self.cells[t0 as usize].v = finite;
-        for f in 0..4 {
-            let g = self.alloc();
-            let mut tv = finite;
-            tv[f] = INF;
-            // Swapping two other vertices puts the infinite vertex outside the face.
-            tv.swap((f + 1) % 4, (f + 2) % 4);
-            // Ghosts keep the infinite vertex last (two swaps keep the orientation).
-            if f != 3 {
-                tv.swap(f, 3);
-                let others: Vec<usize> = (0..3).filter(|&i| i != f).collect();
-                tv.swap(others[0], others[1]);
-            }
-            self.cells[g as usize].v = tv;
-        }
-        // Match the 20 faces pairwise.
-        let faces: Vec<([u32; 3], u32)> = (0..5u32)
-            .flat_map(|t| (0..4u32).map(move |i| (t, i)))
-            .map(|(t, i)| {
-                let tv = self.cells[t as usize].v;
-                let mut key = [0u32; 3];
-                let mut n = 0;
-                for (k, &v) in tv.iter().enumerate() {
-                    if k as u32 != i {
-                        key[n] = v;
-                        n += 1;
-                    }
-                }
-                key.sort_unstable();
-                (key, t * 4 + i)
-            })
-            .collect();
-        for x in &faces {
-            for y in &faces {
-                if x.0 == y.0 && x.1 >> 2 != y.1 >> 2 {
-                    self.cells[(x.1 >> 2) as usize].n[(x.1 & 3) as usize] = y.1;
-                }
-            }
-        }
-        self.last = t0;
-    }
-
-    /// Does vertex `v` conflict with tetrahedron `t` (inside its perturbed circumsphere,
-    /// or for a ghost, strictly beyond its hull face or on it inside the face's
-    /// circumcircle)?
-    #[inline]
-    fn conflict(&self, t: u32, v: u32) -> bool {
-        let tv = self.cells[t as usize].v;
+    fn conflict(&self, tv: [u32; 4], v: u32) -> bool {
         if tv[3] == INF {
             match self.orient(tv[0], tv[1], tv[2], v) {
                 Sign::Positive => true,
@@ -462,20 +491,72 @@ impl<'a> Builder<'a> {
             self.in_sphere_perturbed(tv, v)
         }
     }
+}
 
-    /// Visibility walk from the last created tetrahedron to one in conflict with vertex
-    /// `q`: a finite tetrahedron containing `q`, or a ghost whose hull face `q` is strictly
-    /// beyond. The face the walk came through is not tested again.
-    fn locate(&mut self, q: u32) -> u32 {
-        let mut t = self.last;
-        if self.cells[t as usize].v[3] == INF {
-            t = self.cells[t as usize].n[3] >> 2;
+impl Worker {
+    fn new(seed: u64) -> Worker {
+        Worker {
+            kept: Vec::new(),
+            cavity: Vec::new(),
+            pending: Vec::new(),
+            new_tets: Vec::new(),
+            edge_table: Vec::new(),
+            free: Vec::new(),
+            fresh: 0..0,
+            last: 0,
+            rng: seed,
+            deferred: Vec::new(),
+            todo: Vec::new(),
         }
+    }
+
+    /// Slots this worker can fill without the driver.
+    fn spare(&self) -> usize {
+        self.free.len() + self.fresh.len()
+    }
+
+    #[inline]
+    fn next_random(&mut self) -> u32 {
+        // xorshift64
+        self.rng ^= self.rng << 13;
+        self.rng ^= self.rng >> 7;
+        self.rng ^= self.rng << 17;
+        (self.rng >> 32) as u32
+    }
+
+    /// A slot for a new tetrahedron (the caller checked [`Worker::spare`]).
+    #[inline]
+    fn alloc(&mut self) -> u32 {
+        if let Some(t) = self.free.pop() {
+            return t;
+        }
+        self.fresh
+            .next()
+            .expect("slots were reserved before the insertion")
+    }
+
+    /// Visibility walk from `last` to a tetrahedron in conflict with vertex `q`: a finite
+    /// tetrahedron containing `q`, or (in [`Zone::ALL`]) a ghost whose hull face `q` is
+    /// strictly beyond. The face the walk came through is not tested again. `None` when
+    /// the walk meets a tetrahedron outside `zone`.
+    fn locate(&mut self, g: &Geometry, cells: &[Cell], q: u32, zone: Zone) -> Option<u32> {
+        let mut t = self.last;
         let mut from = 4;
         'walk: loop {
-            let cell = self.cells[t as usize];
-            if cell.v[3] == INF {
-                return t;
+            let cell = &cells[t as usize];
+            let tv = cell.verts();
+            if !zone.owns(g.pts, tv) {
+                return None;
+            }
+            if tv[3] == INF {
+                if from == 4 {
+                    // Starting on a ghost: step inside through its hull face.
+                    let link = cell.n[3].load(Relaxed);
+                    t = link >> 2;
+                    from = (link & 3) as usize;
+                    continue;
+                }
+                return Some(t);
             }
             let start = self.next_random();
             for s in 0..4u32 {
@@ -483,92 +564,121 @@ impl<'a> Builder<'a> {
                 if f == from {
                     continue;
                 }
-                let mut r = cell.v;
+                let mut r = tv;
                 r[f] = q;
-                if self.orient(r[0], r[1], r[2], r[3]) == Sign::Negative {
-                    let link = cell.n[f];
+                if g.orient(r[0], r[1], r[2], r[3]) == Sign::Negative {
+                    let link = cell.n[f].load(Relaxed);
                     t = link >> 2;
                     from = (link & 3) as usize;
                     continue 'walk;
                 }
             }
-            return t;
+            return Some(t);
+        }
+    }
+
+    /// Clears the marks of the cavity search.
+    fn unmark(&self, cells: &[Cell]) {
+        for &t in &self.cavity {
+            cells[t as usize].mark(0, false);
+        }
+        for &t in &self.kept {
+            cells[t as usize].mark(1, false);
         }
     }
 
     /// Inserts vertex `v`: grows the conflict cavity breadth-first and stars it from `v`,
-    /// writing the new tetrahedra over the cavity's slots first.
-    fn insert(&mut self, v: u32) {
-        let t0 = self.locate(v);
+    /// writing the new tetrahedra over the cavity's slots first. Changes nothing when it
+    /// misses (a tetrahedron outside `zone`, or too few slots).
+    fn insert(&mut self, g: &Geometry, cells: &[Cell], v: u32, zone: Zone) -> Result<(), Missed> {
+        let t0 = self.locate(g, cells, v, zone).ok_or(Missed::Foreign)?;
         self.cavity.clear();
-        self.tested_list.clear();
         self.pending.clear();
-        set_bit(&mut self.in_cavity, t0, true);
+        self.kept.clear();
+        cells[t0 as usize].mark(0, true);
         self.cavity.push(t0);
         let mut i = 0;
         while i < self.cavity.len() {
             let t = self.cavity[i];
             i += 1;
-            let cell = self.cells[t as usize];
+            let cell = &cells[t as usize];
+            let (tv, links) = (cell.verts(), cell.links());
+            // The four neighbours' vertices read up front: their cache misses overlap.
+            let raws = links.map(|link| {
+                let c2 = &cells[(link >> 2) as usize];
+                [0, 1, 2, 3].map(|i| c2.v[i].load(Relaxed))
+            });
             for f in 0..4 {
-                let link = cell.n[f];
+                let link = links[f];
                 let t2 = link >> 2;
-                if bit(&self.in_cavity, t2) {
+                let c2 = &cells[t2 as usize];
+                let raw = raws[f];
+                if raw[0] & MARK != 0 {
                     continue;
                 }
-                if !bit(&self.tested, t2) {
-                    if self.conflict(t2, v) {
-                        set_bit(&mut self.in_cavity, t2, true);
+                if raw[1] & MARK == 0 {
+                    let tv2 = raw.map(|u| u & VERTEX_MASK);
+                    if g.conflict(tv2, v) {
+                        if !zone.owns(g.pts, tv2) {
+                            self.unmark(cells);
+                            return Err(Missed::Foreign);
+                        }
+                        c2.mark(0, true);
                         self.cavity.push(t2);
                         continue;
                     }
-                    set_bit(&mut self.tested, t2, true);
-                    self.tested_list.push(t2);
+                    c2.mark(1, true);
+                    self.kept.push(t2);
                 }
-                let mut tv = cell.v;
-                tv[f] = v;
-                self.pending.push((tv, f as u32, link));
+                let mut nv = tv;
+                nv[f] = v;
+                self.pending.push((nv, f as u32, link));
             }
         }
-        for k in 0..self.tested_list.len() {
-            set_bit(&mut self.tested, self.tested_list[k], false);
+        for &t in &self.kept {
+            cells[t as usize].mark(1, false);
         }
-        for k in 0..self.cavity.len() {
-            set_bit(&mut self.in_cavity, self.cavity[k], false);
+        let need = self.pending.len().saturating_sub(self.cavity.len());
+        if need > self.spare() {
+            for &t in &self.cavity {
+                cells[t as usize].mark(0, false);
+            }
+            return Err(Missed::Slots(need));
         }
         self.new_tets.clear();
         for k in 0..self.pending.len() {
-            let (tv, f, link) = self.pending[k];
+            let (nv, f, link) = self.pending[k];
             let s = if k < self.cavity.len() {
                 self.cavity[k]
             } else {
                 self.alloc()
             };
-            self.cells[s as usize] = Cell {
-                v: tv,
-                n: [NO_NEIGHBOUR; 4],
-            };
-            self.cells[s as usize].n[f as usize] = link;
-            self.cells[(link >> 2) as usize].n[(link & 3) as usize] = s * 4 + f;
+            let mut n = [NO_NEIGHBOUR; 4];
+            n[f as usize] = link;
+            let cell = &cells[s as usize];
+            cell.set_verts(nv);
+            cell.set_links(n);
+            set_link(cells, link, s * 4 + f);
             self.new_tets.push(s);
         }
         for k in self.pending.len()..self.cavity.len() {
             let t = self.cavity[k];
-            self.cells[t as usize].v[0] = DEAD;
+            cells[t as usize].v[0].store(DEAD, Relaxed);
             self.free.push(t);
         }
-        self.link_new_tets();
+        self.link_new_tets(cells);
         self.last = self
             .new_tets
             .iter()
             .copied()
-            .find(|&s| self.cells[s as usize].v[3] != INF)
+            .find(|&s| cells[s as usize].v[3].load(Relaxed) != INF)
             .unwrap_or(self.new_tets[0]);
+        Ok(())
     }
 
     /// Links the new tetrahedra to each other: two of them share a face through the new
     /// vertex exactly when they share the cavity-boundary edge opposite it.
-    fn link_new_tets(&mut self) {
+    fn link_new_tets(&mut self, cells: &[Cell]) {
         /// For the new vertex at position `f`: the three faces through it (opposite `j`)
         /// and the two positions of the edge each is keyed by.
         const FACES_THROUGH: [[(u32, usize, usize); 3]; 4] = [
@@ -597,9 +707,8 @@ impl<'a> Builder<'a> {
                         break;
                     }
                     if slot_key == key {
-                        self.cells[s as usize].n[j as usize] = slot_link;
-                        self.cells[(slot_link >> 2) as usize].n[(slot_link & 3) as usize] =
-                            s * 4 + j;
+                        cells[s as usize].n[j as usize].store(slot_link, Relaxed);
+                        set_link(cells, slot_link, s * 4 + j);
                         break;
                     }
                     h = (h + 1) & mask;
@@ -607,61 +716,370 @@ impl<'a> Builder<'a> {
             }
         }
     }
+}
 
-    /// Strips ghosts and free slots in place (moving tetrahedra from the end into holes)
-    /// and returns the finite tetrahedra with hull faces marked [`NO_NEIGHBOUR`], as the
-    /// two arrays of a [`TetMesh`]. The construction array is released from its end while
-    /// the outputs fill from theirs, so memory stays near 32 bytes per tetrahedron.
-    fn finish(mut cells: Vec<Cell>) -> (Vec<[u32; 4]>, Vec<[u32; 4]>) {
-        for t in 0..cells.len() {
-            if cells[t].v[0] == DEAD {
+/// The sequential driver and its state: the cells and the workers.
+struct Builder<'a> {
+    g: Geometry<'a>,
+    cells: Vec<Cell>,
+    /// First never handed out slot (every slot below is live or dead).
+    top: usize,
+    workers: Vec<Worker>,
+}
+
+impl<'a> Builder<'a> {
+    #[allow(clippy::type_complexity)]
+    fn run(
+        pts: &'a [DVec3],
+        rounds: &[usize],
+        zones: usize,
+        progress: &dyn Progress,
+    ) -> Result<(Vec<[u32; 4]>, Vec<[u32; 4]>), TetError> {
+        let first = initial_simplex(pts)?;
+        let grid = Grid::new(pts);
+        let lex_rank = if grid.is_some() {
+            lex_ranks(pts)
+        } else {
+            Vec::new()
+        };
+        // Uniform points give ~6.7 tetrahedra per point; the capacity is only reserved
+        // (pages are touched as the slots are handed out).
+        let estimate = pts.len().saturating_mul(7) + 64;
+        let mut b = Builder {
+            g: Geometry {
+                pts,
+                grid,
+                lex_rank,
+            },
+            cells: Vec::with_capacity(estimate),
+            top: 0,
+            workers: (0..zones)
+                .map(|k| Worker::new(0x2545_F491_4F6C_DD1D ^ (k as u64 + 1)))
+                .collect(),
+        };
+        b.start(first);
+        let total = pts.len();
+        let mut done = 0usize;
+        let report = |done: usize| {
+            if progress.is_cancelled() {
+                return Err(TetError::Cancelled);
+            }
+            progress.report("tetrahedralize", done as f64 / total as f64);
+            Ok(())
+        };
+        for r in rounds.windows(2) {
+            let (a, z) = (r[0], r[1]);
+            if zones == 1 || z - a < PARALLEL_MIN_ROUND {
+                for v in a as u32..z as u32 {
+                    if (v as usize).is_multiple_of(CHECK_EVERY) {
+                        report(v as usize)?;
+                    }
+                    if !first.contains(&v) {
+                        b.insert_sequential(v);
+                    }
+                }
+                done = z;
                 continue;
             }
-            if cells[t].v[3] == INF {
-                let link = cells[t].n[3];
-                cells[(link >> 2) as usize].n[(link & 3) as usize] = NO_NEIGHBOUR;
-                cells[t].v[0] = DEAD;
+            let chunks = (z - a).div_ceil(CHUNK_POINTS);
+            for c in 0..chunks {
+                report(done)?;
+                let lo = a + (z - a) * c / chunks;
+                let hi = a + (z - a) * (c + 1) / chunks;
+                b.insert_parallel(lo as u32..hi as u32, &first);
+                done = hi;
             }
         }
-        let live = cells.iter().filter(|c| c.v[0] != DEAD).count();
-        let mut top = cells.len();
-        for d in 0..live {
-            if cells[d].v[0] != DEAD {
-                continue;
-            }
-            loop {
-                top -= 1;
-                if cells[top].v[0] != DEAD {
-                    break;
-                }
-            }
-            cells[d] = cells[top];
-            for i in 0..4 {
-                let link = cells[d].n[i];
-                if link != NO_NEIGHBOUR {
-                    cells[(link >> 2) as usize].n[(link & 3) as usize] = d as u32 * 4 + i as u32;
-                }
-            }
-        }
-        cells.truncate(live);
-        cells.shrink_to_fit();
-        // Zeroed outputs are not resident until written.
-        let mut tets = vec![[0u32; 4]; live];
-        let mut nbrs = vec![[0u32; 4]; live];
-        const CHUNK: usize = 1 << 16;
-        let mut end = live;
-        while end > 0 {
-            let start = end.saturating_sub(CHUNK);
-            for t in start..end {
-                tets[t] = cells[t].v;
-                nbrs[t] = cells[t].n;
-            }
-            cells.truncate(start);
-            cells.shrink_to_fit();
-            end = start;
-        }
-        (tets, nbrs)
+        report(total)?;
+        let Builder { mut cells, top, .. } = b;
+        cells.truncate(top);
+        Ok(finish(cells))
     }
+
+    /// Hands `count` more never used slots to worker `w` (its unused fresh ones go to its
+    /// free list), growing the array as needed.
+    fn provide(&mut self, w: usize, count: usize) {
+        let worker = &mut self.workers[w];
+        let rest: Vec<u32> = std::mem::replace(&mut worker.fresh, 0..0).collect();
+        worker.free.extend(rest.into_iter().rev());
+        let end = self.top + count;
+        if self.cells.len() < end {
+            self.cells.resize_with(end, Cell::dead);
+        }
+        worker.fresh = self.top as u32..end as u32;
+        self.top = end;
+    }
+
+    /// The first tetrahedron and its four ghosts.
+    fn start(&mut self, [a, b, c, d]: [u32; 4]) {
+        self.provide(0, 4096);
+        let (a, b) = if self.g.orient(a, b, c, d) == Sign::Positive {
+            (a, b)
+        } else {
+            (b, a)
+        };
+        let finite = [a, b, c, d];
+        let w = &mut self.workers[0];
+        let t0 = w.alloc();
+        let mut all = vec![(t0, finite)];
+        for f in 0..4 {
+            let mut tv = finite;
+            tv[f] = INF;
+            // Swapping two other vertices puts the infinite vertex outside the face.
+            tv.swap((f + 1) % 4, (f + 2) % 4);
+            // Ghosts keep the infinite vertex last (two swaps keep the orientation).
+            if f != 3 {
+                tv.swap(f, 3);
+                let others: Vec<usize> = (0..3).filter(|&i| i != f).collect();
+                tv.swap(others[0], others[1]);
+            }
+            all.push((w.alloc(), tv));
+        }
+        for &(t, tv) in &all {
+            self.cells[t as usize].set_verts(tv);
+        }
+        // Match the 20 faces pairwise.
+        let faces: Vec<([u32; 3], u32)> = all
+            .iter()
+            .flat_map(|&(t, tv)| (0..4u32).map(move |i| (t, tv, i)))
+            .map(|(t, tv, i)| {
+                let mut key = [0u32; 3];
+                let mut n = 0;
+                for (k, &v) in tv.iter().enumerate() {
+                    if k as u32 != i {
+                        key[n] = v;
+                        n += 1;
+                    }
+                }
+                key.sort_unstable();
+                (key, t * 4 + i)
+            })
+            .collect();
+        for x in &faces {
+            for y in &faces {
+                if x.0 == y.0 && x.1 >> 2 != y.1 >> 2 {
+                    set_link(&self.cells, x.1, y.1);
+                }
+            }
+        }
+        for w in &mut self.workers {
+            w.last = t0;
+        }
+    }
+
+    /// Inserts `v` with worker 0 over the whole mesh, providing slots as needed.
+    fn insert_sequential(&mut self, v: u32) {
+        if self.cells[self.workers[0].last as usize].is_dead() {
+            let t = self.any_live();
+            self.workers[0].last = t;
+        }
+        loop {
+            let w = &mut self.workers[0];
+            match w.insert(&self.g, &self.cells, v, Zone::ALL) {
+                Ok(()) => return,
+                Err(Missed::Slots(need)) => self.provide(0, need.max(SLOT_BATCH)),
+                Err(Missed::Foreign) => unreachable!("the whole mesh is worker 0's zone"),
+            }
+        }
+    }
+
+    /// A live finite tetrahedron (there always is one once started).
+    fn any_live(&self) -> u32 {
+        for w in &self.workers {
+            let c = &self.cells[w.last as usize];
+            if !c.is_dead() && c.v[3].load(Relaxed) != INF {
+                return w.last;
+            }
+        }
+        (0..self.top)
+            .find(|&t| !self.cells[t].is_dead() && self.cells[t].v[3].load(Relaxed) != INF)
+            .expect("a started mesh has a finite tetrahedron") as u32
+    }
+
+    /// Inserts the vertices `range` (one Hilbert-ordered piece of a round): a parallel
+    /// pass, a second one over the vertices it gave up (cut across another axis), and
+    /// the rest sequentially, in order.
+    fn insert_parallel(&mut self, range: Range<u32>, first: &[u32; 4]) {
+        let ids: Vec<u32> = range.filter(|v| !first.contains(v)).collect();
+        let mut rest = self.zoned_pass(ids);
+        // The vertices given up lie near the cut: split them again across another axis.
+        if rest.len() >= SECOND_PASS_MIN {
+            rest = self.zoned_pass(rest);
+        }
+        for v in rest {
+            self.insert_sequential(v);
+        }
+    }
+
+    /// One parallel pass over `ids` (increasing): split into slabs of equal counts across
+    /// the longest axis of their bounding box, one worker per slab. Returns the vertices
+    /// the workers gave up, increasing.
+    fn zoned_pass(&mut self, ids: Vec<u32>) -> Vec<u32> {
+        let pts = self.g.pts;
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for &v in &ids {
+            lo = lo.min(pts[v as usize]);
+            hi = hi.max(pts[v as usize]);
+        }
+        let axis = (hi - lo).max_position();
+        let mut coords: Vec<f64> = ids.iter().map(|&v| pts[v as usize][axis]).collect();
+        let k = self.workers.len();
+        let mut cuts = vec![f64::NEG_INFINITY];
+        for z in 1..k {
+            let at = coords.len() * z / k;
+            let (_, c, _) = coords.select_nth_unstable_by(at, f64::total_cmp);
+            cuts.push(*c);
+        }
+        cuts.push(f64::INFINITY);
+        drop(coords);
+        let zones: Vec<Zone> = (0..k)
+            .map(|z| Zone {
+                all: false,
+                axis,
+                lo: cuts[z],
+                hi: cuts[z + 1],
+            })
+            .collect();
+        for w in &mut self.workers {
+            w.todo.clear();
+            w.deferred.clear();
+        }
+        for &v in &ids {
+            let c = pts[v as usize][axis];
+            let z = cuts[1..k].partition_point(|&cut| cut <= c);
+            self.workers[z].todo.push(v);
+        }
+        // Slots: ~6.7 new tetrahedra per vertex on average; an insertion finding too few
+        // is simply done in the sequential pass.
+        for z in 0..k {
+            let want = self.workers[z].todo.len() * 7 + SLOT_BATCH;
+            let have = self.workers[z].spare();
+            if have < want {
+                self.provide(z, want - have);
+            }
+        }
+        // Each worker starts from a tetrahedron of its own zone near its first vertex,
+        // found while nothing else runs.
+        for (z, &zone) in zones.iter().enumerate() {
+            let start = match self.workers[z].todo.first() {
+                Some(&v) => self.zone_start(z, v, zone),
+                None => None,
+            };
+            if let Some(t) = start {
+                self.workers[z].last = t;
+            } else {
+                let w = &mut self.workers[z];
+                let todo = std::mem::take(&mut w.todo);
+                w.deferred.extend(todo);
+            }
+        }
+        let (g, cells) = (&self.g, &self.cells[..]);
+        self.workers
+            .par_iter_mut()
+            .zip(zones.par_iter())
+            .for_each(|(w, &zone)| {
+                let todo = std::mem::take(&mut w.todo);
+                for &v in &todo {
+                    if w.insert(g, cells, v, zone).is_err() {
+                        w.deferred.push(v);
+                    }
+                }
+                w.todo = todo;
+            });
+        let mut rest: Vec<u32> = self
+            .workers
+            .iter_mut()
+            .flat_map(|w| w.deferred.drain(..))
+            .collect();
+        rest.sort_unstable();
+        rest
+    }
+
+    /// A live tetrahedron with all four vertices in `zone` near vertex `v`: the one the
+    /// walk for `v` ends in, or the nearest such one breadth-first from it.
+    fn zone_start(&mut self, z: usize, v: u32, zone: Zone) -> Option<u32> {
+        if self.cells[self.workers[0].last as usize].is_dead() {
+            let t = self.any_live();
+            self.workers[0].last = t;
+        }
+        let t = self.workers[0].locate(&self.g, &self.cells, v, Zone::ALL)?;
+        let w = &mut self.workers[z];
+        w.last = t;
+        let mut queue = vec![t];
+        let mut k = 0;
+        while k < queue.len() && k < ZONE_START_SEARCH {
+            let t = queue[k];
+            k += 1;
+            let cell = &self.cells[t as usize];
+            if zone.owns(self.g.pts, cell.verts()) {
+                return Some(t);
+            }
+            for link in cell.links() {
+                let t2 = link >> 2;
+                if !queue.contains(&t2) {
+                    queue.push(t2);
+                }
+            }
+        }
+        None
+    }
+}
+
+/// Strips ghosts and free slots in place (moving tetrahedra from the end into holes) and
+/// returns the finite tetrahedra with hull faces marked [`NO_NEIGHBOUR`], as the two
+/// arrays of a [`TetMesh`]. The construction array is released from its end while the
+/// outputs fill from theirs, so memory stays near 32 bytes per tetrahedron.
+fn finish(mut cells: Vec<Cell>) -> (Vec<[u32; 4]>, Vec<[u32; 4]>) {
+    for t in 0..cells.len() {
+        if cells[t].is_dead() {
+            continue;
+        }
+        if cells[t].v[3].load(Relaxed) == INF {
+            let link = cells[t].n[3].load(Relaxed);
+            set_link(&cells, link, NO_NEIGHBOUR);
+            cells[t].v[0].store(DEAD, Relaxed);
+        }
+    }
+    let live = cells.iter().filter(|c| !c.is_dead()).count();
+    let mut top = cells.len();
+    for d in 0..live {
+        if !cells[d].is_dead() {
+            continue;
+        }
+        loop {
+            top -= 1;
+            if !cells[top].is_dead() {
+                break;
+            }
+        }
+        let (v, n) = (cells[top].verts(), cells[top].links());
+        cells[d].set_verts(v);
+        cells[d].set_links(n);
+        for (i, link) in n.into_iter().enumerate() {
+            if link != NO_NEIGHBOUR {
+                set_link(&cells, link, d as u32 * 4 + i as u32);
+            }
+        }
+    }
+    cells.truncate(live);
+    cells.shrink_to_fit();
+    // Zeroed outputs are not resident until written.
+    let mut tets = vec![[0u32; 4]; live];
+    let mut nbrs = vec![[0u32; 4]; live];
+    const CHUNK: usize = 1 << 16;
+    let mut end = live;
+    while end > 0 {
+        let start = end.saturating_sub(CHUNK);
+        for t in start..end {
+            tets[t] = cells[t].verts();
+            nbrs[t] = cells[t].links();
+        }
+        cells.truncate(start);
+        cells.shrink_to_fit();
+        end = start;
+    }
+    (tets, nbrs)
 }
 
 /// The rank of each point in the lexicographic order of `(x, y, z)` (distinct points).
@@ -694,6 +1112,100 @@ fn initial_simplex(pts: &[DVec3]) -> Result<[u32; 4], TetError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::progress::NoProgress;
+
+    fn xorshift(state: &mut u64) -> f64 {
+        *state ^= *state << 13;
+        *state ^= *state >> 7;
+        *state ^= *state << 17;
+        (*state >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Each tetrahedron as its sorted input-point positions, sorted: comparable across
+    /// builds whatever their slot order.
+    fn tet_set(mesh: &TetMesh) -> Vec<[[u64; 3]; 4]> {
+        let mut set: Vec<[[u64; 3]; 4]> = mesh
+            .tets
+            .iter()
+            .map(|t| {
+                let mut c = t.map(|v| mesh.points[v as usize].to_array().map(f64::to_bits));
+                c.sort_unstable();
+                c
+            })
+            .collect();
+        set.sort_unstable();
+        set
+    }
+
+    #[test]
+    fn parallel_zones_give_the_delaunay_mesh_of_one_worker_on_any_number_of_threads() {
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let uniform: Vec<DVec3> = (0..60_000)
+            .map(|_| {
+                DVec3::new(
+                    xorshift(&mut state),
+                    xorshift(&mut state),
+                    xorshift(&mut state),
+                )
+            })
+            .collect();
+        // Clustered: most points in a few tight balls, with many exact duplicates.
+        let clustered: Vec<DVec3> = (0..60_000)
+            .map(|i| {
+                let c = DVec3::splat((i % 5) as f64 * 10.0);
+                let p = c + DVec3::new(
+                    xorshift(&mut state),
+                    xorshift(&mut state),
+                    xorshift(&mut state),
+                ) * 0.1;
+                if i % 7 == 0 { c } else { p }
+            })
+            .collect();
+        // A UTM well lattice: 25 x 25 vertical wells 50 m apart, 100 samples 1 m apart
+        // (co-spherical everywhere), and the same jittered only in the collars.
+        let lattice = |jitter: bool, state: &mut u64| -> Vec<DVec3> {
+            let mut pts = Vec::new();
+            for i in 0..25 {
+                for j in 0..25 {
+                    let dx = if jitter { xorshift(state) * 3.0 } else { 0.0 };
+                    for k in 0..100 {
+                        pts.push(DVec3::new(
+                            500_000.0 + i as f64 * 50.0 + dx,
+                            6_500_000.0 + j as f64 * 50.0,
+                            300.0 - k as f64,
+                        ));
+                    }
+                }
+            }
+            pts
+        };
+        let exact = lattice(false, &mut state);
+        let jittered = lattice(true, &mut state);
+        for (name, pts) in [
+            ("uniform", uniform),
+            ("clustered", clustered),
+            ("utm lattice", exact),
+            ("utm wells", jittered),
+        ] {
+            let one = build_in_zones(pts.clone(), 1, &NoProgress).unwrap();
+            one.validate().unwrap();
+            for zones in [2, 3] {
+                let many = build_in_zones(pts.clone(), zones, &NoProgress).unwrap();
+                many.validate()
+                    .unwrap_or_else(|e| panic!("{name}, {zones} zones: {e}"));
+                assert_eq!(many.duplicates_merged, one.duplicates_merged, "{name}");
+                assert_eq!(many.vertex_of_input, one.vertex_of_input, "{name}");
+                assert_eq!(tet_set(&many), tet_set(&one), "{name}, {zones} zones");
+                // The same bytes on one thread as on the pool's threads.
+                let single = rayon::ThreadPoolBuilder::new()
+                    .num_threads(1)
+                    .build()
+                    .unwrap()
+                    .install(|| build_in_zones(pts.clone(), zones, &NoProgress).unwrap());
+                assert_eq!(single, many, "{name}, {zones} zones on one thread");
+            }
+        }
+    }
 
     #[test]
     fn in_place_permutation_and_inverse_match_the_copying_versions() {

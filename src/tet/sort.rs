@@ -60,11 +60,12 @@ fn mix(mut z: u64) -> u64 {
 
 /// The insertion order of all `points`: round 0 (about 64 points) first, each later round
 /// about twice as large, the last holding about half of the points; within a round,
-/// Hilbert order. Sorted in parallel.
-pub fn brio_hilbert_order(points: &[DVec3]) -> Vec<u32> {
+/// Hilbert order. Sorted in parallel. Also returns where each round starts in the order,
+/// followed by `points.len()`.
+pub fn brio_hilbert_order(points: &[DVec3]) -> (Vec<u32>, Vec<usize>) {
     let n = points.len();
     if n == 0 {
-        return Vec::new();
+        return (Vec::new(), vec![0]);
     }
     let (lo, hi) = points
         .par_iter()
@@ -94,7 +95,14 @@ pub fn brio_hilbert_order(points: &[DVec3]) -> Vec<u32> {
         })
         .collect();
     keyed.par_sort_unstable();
-    keyed.into_iter().map(|(_, i)| i).collect()
+    let mut starts = vec![0];
+    for k in 1..n {
+        if keyed[k].0 >> 58 != keyed[k - 1].0 >> 58 {
+            starts.push(k);
+        }
+    }
+    starts.push(n);
+    (keyed.into_iter().map(|(_, i)| i).collect(), starts)
 }
 
 #[cfg(test)]
@@ -123,7 +131,9 @@ mod tests {
         let pts: Vec<DVec3> = (0..1000)
             .map(|i| DVec3::new((i % 10) as f64, ((i / 10) % 10) as f64, (i / 100) as f64))
             .collect();
-        let mut order = brio_hilbert_order(&pts);
+        let (mut order, starts) = brio_hilbert_order(&pts);
+        assert_eq!((starts[0], *starts.last().unwrap()), (0, 1000));
+        assert!(starts.windows(2).all(|w| w[0] < w[1]));
         order.sort_unstable();
         assert_eq!(order, (0..1000).collect::<Vec<u32>>());
     }
