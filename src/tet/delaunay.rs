@@ -304,16 +304,18 @@ struct Geometry<'a> {
     lex_rank: Vec<u32>,
 }
 
-/// The vertices a worker may remove tetrahedra of: those with `lo <= p[axis] < hi`, or
-/// every vertex including the infinite one ([`Zone::ALL`], the sequential passes).
+/// The vertices a worker may remove tetrahedra of: those with `lo <= p[axis] < hi` and
+/// the infinite vertex, or every vertex ([`Zone::ALL`], the sequential passes).
 ///
 /// Why this makes the parallel chunks safe: a worker deletes (and writes over) only
 /// tetrahedra whose four vertices are in its zone, and writes the neighbour link of a
 /// tetrahedron only when it shares a face with one of those, so every tetrahedron it
 /// writes has at least three vertices in its zone. It reads only tetrahedra it reached
 /// through a face of one of its own (at least three vertices in its zone) or the start
-/// the sequential driver found for it. Zones are disjoint, so no tetrahedron one worker
-/// writes is read or written by another during the chunk; an insertion that would need
+/// the sequential driver found for it. No tetrahedron has three vertices in each of two
+/// zones: the slabs are disjoint, and the infinite vertex, the one they share, is in a
+/// ghost with three finite vertices, which cannot be two in each. So no tetrahedron one
+/// worker writes is read or written by another during the chunk; an insertion that would need
 /// one outside its zone is given up before it changes anything and done in the
 /// sequential pass after the chunk. What each worker does is thus independent of the
 /// others' timing, and the result is the same on any number of threads.
@@ -333,6 +335,7 @@ impl Zone {
         hi: f64::INFINITY,
     };
 
+    /// Is `u` in the zone? The infinite vertex is in every zone.
     #[inline]
     fn owns_vertex(&self, pts: &[DVec3], u: u32) -> bool {
         match pts.get(u as usize) {
@@ -340,7 +343,7 @@ impl Zone {
                 let c = p[self.axis];
                 self.lo <= c && c < self.hi
             }
-            None => false,
+            None => u == INF,
         }
     }
 
@@ -550,10 +553,10 @@ impl Worker {
             }
             if tv[3] == INF {
                 if from == 4 {
-                    // Starting on a ghost: step inside through its hull face.
-                    let link = cell.n[3].load(Relaxed);
-                    t = link >> 2;
-                    from = (link & 3) as usize;
+                    // Starting on a ghost: step inside through its hull face (and test
+                    // that face again: nothing says the point is on its inner side).
+                    t = cell.n[3].load(Relaxed) >> 2;
+                    from = 5;
                     continue;
                 }
                 return Some(t);
