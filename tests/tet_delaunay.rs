@@ -156,6 +156,37 @@ fn lattice_at_utm_coordinates_gives_the_same_tetrahedra_as_at_the_origin() {
     }
 }
 
+/// Sets of 50,000 points and more are inserted in parallel zones: the same guarantees.
+#[test]
+fn large_sets_built_in_parallel_zones_are_exact_and_independent_of_the_origin() {
+    let pts = random_points(100_000, 11);
+    let mesh = delaunay(&pts, &NoProgress).unwrap();
+    mesh.validate().unwrap();
+    assert!(mesh.tets.len() > 6 * 100_000, "{}", mesh.tets.len());
+    let local = delaunay(&well_lattice(24, 100, DVec3::ZERO), &NoProgress).unwrap();
+    local.validate().unwrap();
+    let box_m3 = 1150.0 * 1150.0 * 99.0;
+    assert!((volume_m3(&local) - box_m3).abs() < 1e-9 * box_m3);
+    let offset = DVec3::new(5e5, 7e6, 0.0);
+    let utm = delaunay(&well_lattice(24, 100, offset), &NoProgress).unwrap();
+    utm.validate().unwrap();
+    assert_eq!(tet_set(&local, DVec3::ZERO), tet_set(&utm, offset));
+}
+
+/// The benchmark sizes, validated in full (about a minute):
+/// `cargo test --release --test tet_delaunay million -- --ignored`.
+#[test]
+#[ignore]
+fn a_million_uniform_points_and_a_million_sample_utm_lattice_validate() {
+    let mesh = delaunay(&random_points(1_000_000, 5), &NoProgress).unwrap();
+    mesh.validate().unwrap();
+    let offset = DVec3::new(5e5, 7e6, 0.0);
+    let mesh = delaunay(&well_lattice(100, 100, offset), &NoProgress).unwrap();
+    mesh.validate().unwrap();
+    let box_m3 = 4950.0 * 4950.0 * 99.0;
+    assert!((volume_m3(&mesh) - box_m3).abs() < 1e-9 * box_m3);
+}
+
 #[test]
 fn cube_lattice_count_is_defined_by_the_perturbation() {
     // 4 x 4 x 4 unit lattice: every cube is co-spherical. The perturbation makes the
