@@ -638,15 +638,14 @@ impl Worker {
                 self.pending.push((nv, f as u32, link));
             }
         }
-        for &t in &self.kept {
-            cells[t as usize].mark(1, false);
-        }
         let need = self.pending.len().saturating_sub(self.cavity.len());
         if need > self.spare() {
-            for &t in &self.cavity {
-                cells[t as usize].mark(0, false);
-            }
+            self.unmark(cells);
             return Err(Missed::Slots(need));
+        }
+        // The cavity's marks go with its cells, overwritten or freed below.
+        for &t in &self.kept {
+            cells[t as usize].mark(1, false);
         }
         self.new_tets.clear();
         for k in 0..self.pending.len() {
@@ -803,8 +802,8 @@ impl<'a> Builder<'a> {
     /// free list), growing the array as needed.
     fn provide(&mut self, w: usize, count: usize) {
         let worker = &mut self.workers[w];
-        let rest: Vec<u32> = std::mem::replace(&mut worker.fresh, 0..0).collect();
-        worker.free.extend(rest.into_iter().rev());
+        let rest = std::mem::replace(&mut worker.fresh, 0..0);
+        worker.free.extend(rest.rev());
         let end = self.top + count;
         if self.cells.len() < end {
             self.cells.resize_with(end, Cell::dead);
@@ -872,10 +871,7 @@ impl<'a> Builder<'a> {
 
     /// Inserts `v` with worker 0 over the whole mesh, providing slots as needed.
     fn insert_sequential(&mut self, v: u32) {
-        if self.cells[self.workers[0].last as usize].is_dead() {
-            let t = self.any_live();
-            self.workers[0].last = t;
-        }
+        self.revive_start();
         loop {
             let w = &mut self.workers[0];
             match w.insert(&self.g, &self.cells, v, Zone::ALL) {
@@ -883,6 +879,14 @@ impl<'a> Builder<'a> {
                 Err(Missed::Slots(need)) => self.provide(0, need.max(SLOT_BATCH)),
                 Err(Missed::Foreign) => unreachable!("the whole mesh is worker 0's zone"),
             }
+        }
+    }
+
+    /// Points worker 0's walk start at a live tetrahedron (another worker may have
+    /// deleted the one it had).
+    fn revive_start(&mut self) {
+        if self.cells[self.workers[0].last as usize].is_dead() {
+            self.workers[0].last = self.any_live();
         }
     }
 
@@ -1002,10 +1006,7 @@ impl<'a> Builder<'a> {
     /// A live tetrahedron with all four vertices in `zone` near vertex `v`: the one the
     /// walk for `v` ends in, or the nearest such one breadth-first from it.
     fn zone_start(&mut self, z: usize, v: u32, zone: Zone) -> Option<u32> {
-        if self.cells[self.workers[0].last as usize].is_dead() {
-            let t = self.any_live();
-            self.workers[0].last = t;
-        }
+        self.revive_start();
         let t = self.workers[0].locate(&self.g, &self.cells, v, Zone::ALL)?;
         let w = &mut self.workers[z];
         w.last = t;
