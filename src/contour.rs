@@ -42,6 +42,9 @@ pub struct ContourRequest {
     /// Bodies with a smaller volume are left out of the output (and counted in the
     /// shell's `filtered_bodies`); `None` keeps every body, folded ones included.
     pub min_volume: Option<f64>,
+    /// Sweeps of the shape relaxation of IbC and CoI vertices (`dmt::relax`); 0 keeps the
+    /// paper's positions. Other methods ignore it.
+    pub relax: usize,
 }
 
 impl ContourRequest {
@@ -56,6 +59,7 @@ impl ContourRequest {
             anisotropy: None,
             grid: None,
             min_volume: None,
+            relax: dmt::relax::DEFAULT_SWEEPS,
         }
     }
 }
@@ -153,6 +157,9 @@ pub struct VolumeRange {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Summary {
     pub method: String,
+    /// Sweeps of the shape relaxation applied (0 when none: the paper's positions, or a
+    /// method other than IbC and CoI).
+    pub relax_sweeps: usize,
     pub origin: [f64; 3],
     pub crs: Option<String>,
     pub unit: String,
@@ -260,15 +267,17 @@ fn shell(
     method: Method,
     inverse: Option<DMat3>,
     min_volume: Option<f64>,
+    relax: usize,
     progress: &dyn Progress,
 ) -> Result<(Shell, Filtered), ContourError> {
     let mut shell = match method {
-        Method::Dmt(placement) => dmt::extract_shell(
+        Method::Dmt(placement) => dmt::extract_shell_relaxed(
             &data.mesh,
             &data.values,
             threshold,
             placement,
             Triangulation::default(),
+            relax,
             progress,
         )?,
         Method::MarchingTetrahedra => {
@@ -409,7 +418,13 @@ pub fn run(
         }
         let min_volume = request.min_volume;
         shells.push(shell(
-            &data, threshold, method, inverse, min_volume, progress,
+            &data,
+            threshold,
+            method,
+            inverse,
+            min_volume,
+            request.relax,
+            progress,
         )?);
     }
     let (shells, filtered): (Vec<Shell>, Vec<Filtered>) = shells.into_iter().unzip();
@@ -491,6 +506,7 @@ pub fn run(
                 method,
                 inverse,
                 min_volume,
+                request.relax,
                 progress,
             )?;
             let (high, _) = shell(
@@ -499,6 +515,7 @@ pub fn run(
                 method,
                 inverse,
                 min_volume,
+                request.relax,
                 progress,
             )?;
             let volume = |s: &Shell| s.bodies.iter().map(|b| b.volume).sum::<f64>();
@@ -532,6 +549,10 @@ pub fn run(
     count("bodies", shells.iter().map(|s| s.bodies.len()).sum());
     let summary = Summary {
         method: method.name().to_string(),
+        relax_sweeps: match method {
+            Method::Dmt(Placement::Ibc | Placement::Coi) => request.relax,
+            _ => 0,
+        },
         origin: origin.to_array(),
         crs,
         unit: samples.unit.clone(),

@@ -157,6 +157,54 @@ fn an_ellipsoid_grade_body_from_utm_wells_is_one_closed_body_with_the_right_volu
 }
 
 #[test]
+fn relaxed_grade_shells_have_at_most_half_the_slivers_of_marching_tetrahedra_and_its_volume() {
+    let exact_area = ellipsoid_area(AXES.x, AXES.y, AXES.z);
+    for spacing in [25.0, 40.0] {
+        let n = (600.0 / spacing) as usize;
+        let samples = wells(n, spacing, 2.0, 0.0, -240.0, 7, |p| {
+            Some(ellipsoid_grade(p))
+        });
+        let run = |method: Method, relax: usize| {
+            let mut r = request(samples.clone(), vec![0.0], Some(method));
+            r.relax = relax;
+            let result = contour::run(&r, &NoProgress).expect("contour");
+            let s = &result.summary.shells[0];
+            assert!(s.bodies.iter().all(|b| b.closed && b.volume > 0.0));
+            (
+                s.volume,
+                s.area,
+                s.quality.min_angle_under_10deg,
+                result.summary.relax_sweeps,
+            )
+        };
+        let (mt_volume, mt_area, mt_slivers, _) = run(Method::MarchingTetrahedra, 3);
+        for placement in [Placement::Ibc, Placement::Coi] {
+            let (volume, area, slivers, sweeps) =
+                run(Method::Dmt(placement), wellmesh::dmt::relax::DEFAULT_SWEEPS);
+            let (paper_volume, _, paper_slivers, paper_sweeps) = run(Method::Dmt(placement), 0);
+            eprintln!(
+                "{spacing} m {placement:?}: slivers {slivers:.3} (paper {paper_slivers:.3}, MT \
+                 {mt_slivers:.3}), volume / MT {:.6}, area error {:+.4} (MT {:+.4})",
+                volume / mt_volume,
+                area / exact_area - 1.0,
+                mt_area / exact_area - 1.0
+            );
+            assert_eq!(
+                (sweeps, paper_sweeps),
+                (wellmesh::dmt::relax::DEFAULT_SWEEPS, 0)
+            );
+            assert!(slivers <= 0.5 * mt_slivers, "{slivers} vs MT {mt_slivers}");
+            assert!(slivers < paper_slivers);
+            // Both keep marching tetrahedra's volume (the balance), and the relaxed area
+            // is no further from the exact one than MT's.
+            assert!((volume / mt_volume - 1.0).abs() < 1e-3);
+            assert!((paper_volume / mt_volume - 1.0).abs() < 1e-3);
+            assert!((area / exact_area - 1.0).abs() <= (mt_area / exact_area - 1.0).abs());
+        }
+    }
+}
+
+#[test]
 fn binary_wells_give_a_smooth_closed_body_with_the_curvature_placement_by_default() {
     let samples = wells(13, 30.0, 2.0, 0.0, -240.0, 11, |p| {
         Some(if ellipsoid_grade(p) >= 0.0 { 1.0 } else { 0.0 })
@@ -432,7 +480,7 @@ fn method_comparison() {
             let v: f64 = shell.bodies.iter().map(|b| b.volume).sum();
             let a: f64 = shell.bodies.iter().map(|b| b.area).sum();
             eprintln!(
-                "spacing {spacing} step {step} {name:28} volume {:+.4} area {:+.4} slivers {:.3} bodies {}",
+                "spacing {spacing} step {step} {name:44} volume {:+.4} area {:+.4} slivers {:.3} bodies {}",
                 v / exact_volume - 1.0,
                 a / exact_area - 1.0,
                 shell.quality.min_angle_under_10deg,
@@ -450,18 +498,44 @@ fn method_comparison() {
             Placement::Distance,
             Placement::Curvature { lattice: 7 },
         ] {
-            for tri in [
-                Triangulation::MaxMinAngle,
-                Triangulation::Star,
-                Triangulation::EdgeCrossing,
-                Triangulation::Fan,
-            ] {
-                let t0 = std::time::Instant::now();
-                let shell =
-                    dmt::extract_shell(&mesh, &vals, threshold, placement, tri, &NoProgress)
-                        .unwrap();
-                eprintln!("{:.3} s", t0.elapsed().as_secs_f64());
-                report(&format!("{placement:?} {tri:?}"), &shell);
+            // METHODS=default: the default triangulation only, and IbC/CoI also with the
+            // paper's positions (no relaxation).
+            let default_only = std::env::var("METHODS").is_ok_and(|m| m == "default");
+            let triangulations: &[Triangulation] = if default_only {
+                &[Triangulation::MaxMinAngle]
+            } else {
+                &[
+                    Triangulation::MaxMinAngle,
+                    Triangulation::Star,
+                    Triangulation::EdgeCrossing,
+                    Triangulation::Fan,
+                ]
+            };
+            for &tri in triangulations {
+                let sweeps: &[usize] =
+                    if matches!(placement, Placement::Ibc | Placement::Coi) && default_only {
+                        &[dmt::relax::DEFAULT_SWEEPS, 0]
+                    } else {
+                        &[dmt::relax::DEFAULT_SWEEPS]
+                    };
+                for &relax in sweeps {
+                    let t0 = std::time::Instant::now();
+                    let shell = dmt::extract_shell_relaxed(
+                        &mesh,
+                        &vals,
+                        threshold,
+                        placement,
+                        tri,
+                        relax,
+                        &NoProgress,
+                    )
+                    .unwrap();
+                    let time = t0.elapsed().as_secs_f64();
+                    report(
+                        &format!("{placement:?} {tri:?} relax {relax} {time:.3} s"),
+                        &shell,
+                    );
+                }
             }
         }
     }

@@ -196,6 +196,7 @@ fn result(shells: Vec<(f64, Vec<Body>)>, crs: Option<&str>) -> ContourResult {
         .collect();
     let summary = Summary {
         method: "ibc".to_owned(),
+        relax_sweeps: 0,
         origin: ORIGIN,
         crs: crs.map(str::to_owned),
         unit: "m".to_owned(),

@@ -81,6 +81,7 @@ fn contoured() -> ContourResult {
         anisotropy: None,
         grid: None,
         min_volume: None,
+        relax: wellmesh::dmt::relax::DEFAULT_SWEEPS,
     };
     contour::run(&request, &NoProgress).expect("the pipeline contours the lenses")
 }

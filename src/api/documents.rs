@@ -412,6 +412,14 @@ pub fn process_description() -> ProcessDescription {
             json!({"type": "number", "minimum": 0}),
         ),
     );
+    inputs.insert(
+        "relax".to_string(),
+        input(
+            "Shape relaxation sweeps",
+            "IbC and CoI vertices slide within their tetrahedron's marching-tetrahedra polygon to cut slivers (triangles under 10 degrees); 0 keeps the paper's positions.",
+            json!({"type": "integer", "minimum": 0, "maximum": crate::dmt::relax::MAX_SWEEPS, "default": crate::dmt::relax::DEFAULT_SWEEPS}),
+        ),
+    );
     for (name, title, what) in [
         (
             "well_traces",

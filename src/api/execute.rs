@@ -67,6 +67,8 @@ pub struct MultipartInputs {
     /// `sx,sy,sz` or a JSON array.
     anisotropy: Option<String>,
     min_volume: Option<f64>,
+    /// Sweeps of the shape relaxation of IbC and CoI vertices (0 to 50; default 3).
+    relax: Option<u32>,
     /// Draw the drill-hole traces in the GLB: true (default) or false.
     well_traces: Option<bool>,
     /// Draw the samples in the GLB: true (default) or false.
@@ -380,6 +382,15 @@ async fn inputs_from_multipart(
             "min_volume" | "composite_length" => {
                 let value: f64 = text.trim().parse().map_err(|_| {
                     Problem::invalid_input(&name, format!("{:?} is not a number", text.trim()))
+                })?;
+                inputs.insert(name, Value::from(value));
+            }
+            "relax" => {
+                let value: u32 = text.trim().parse().map_err(|_| {
+                    Problem::invalid_input(
+                        &name,
+                        format!("{:?} is not a whole number >= 0", text.trim()),
+                    )
                 })?;
                 inputs.insert(name, Value::from(value));
             }

@@ -61,6 +61,14 @@ pub struct Args {
     #[arg(long, value_name = "N", default_value_t = wellmesh::dmt::DEFAULT_CURVATURE_LATTICE)]
     pub lattice: u32,
 
+    /// Sweeps of the shape relaxation of ibc and coi vertices: each slides within its
+    /// tetrahedron's marching-tetrahedra polygon to cut slivers (triangles with an angle
+    /// under 10 degrees); bodies keep marching tetrahedra's volume. 0 keeps the paper's
+    /// positions exactly.
+    #[arg(long, value_name = "SWEEPS", default_value_t = wellmesh::dmt::relax::DEFAULT_SWEEPS as u16,
+          value_parser = clap::value_parser!(u16).range(0..=wellmesh::dmt::relax::MAX_SWEEPS as i64))]
+    pub relax: u16,
+
     /// "Don't know" samples: drop (default) or bounds.
     #[arg(long, value_enum, default_value = "drop")]
     pub unknown: UnknownArg,
@@ -200,6 +208,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         anisotropy,
         grid,
         min_volume: args.min_volume,
+        relax: usize::from(args.relax),
         ..ContourRequest::new(samples, args.thresholds.clone())
     };
     let bar = Bar::new(args.quiet);

@@ -209,6 +209,7 @@ mod tests {
         ContourResult {
             summary: Summary {
                 method: "ibc".into(),
+                relax_sweeps: 0,
                 origin: origin.to_array(),
                 crs: crs.map(str::to_owned),
                 unit: "m".into(),

@@ -140,8 +140,9 @@ fn balanced(g: f64, alpha: f64) -> f64 {
 pub struct Balance<'a> {
     /// Per marked region (`mt::marked_regions` id): the volume to match.
     pub target: &'a [f64],
-    /// The placement rule applied to the balanced field (threshold 0).
-    pub rule: fn(&SortedCorners, f64) -> DVec3,
+    /// The placement rule applied to the balanced field (threshold 0), given the DMT
+    /// vertex's index and its tetrahedron's corners.
+    pub rule: &'a (dyn Fn(usize, &SortedCorners) -> DVec3 + Sync),
     /// At most this many placements.
     pub steps: usize,
     /// The triangulation whose volumes are balanced.
@@ -185,6 +186,11 @@ impl RootSearch {
 
     fn best(&self) -> f64 {
         self.best.0
+    }
+
+    /// `g` at [`RootSearch::best`].
+    fn miss(&self) -> f64 {
+        self.best.1
     }
 
     /// The next balance to evaluate.
@@ -248,6 +254,9 @@ impl RootSearch {
 pub struct Balanced {
     pub corner_field: Vec<[f64; 4]>,
     pub alpha: Vec<f64>,
+    /// Per region: how far the balanced volume misses its target, as a share of it
+    /// (0 when met to the tolerance; larger when no balance in range reaches it).
+    pub missed: Vec<f64>,
 }
 
 /// The balanced crossing on the active edge from marked `a` to unmarked `b`.
@@ -361,7 +370,8 @@ pub fn place_balanced(
             .par_iter_mut()
             .zip(&topo.roles[..topo.active_tets])
             .zip(&vertex_region[..topo.active_tets])
-            .for_each(|((p, role), &r)| {
+            .enumerate()
+            .for_each(|(i, ((p, role), &r))| {
                 let VertexRole::Tet { tet } = *role else {
                     unreachable!("the first vertices are DMT vertices")
                 };
@@ -370,7 +380,7 @@ pub fn place_balanced(
                     tv.map(|v| mesh.points[v as usize]),
                     tv.map(|v| value(v, r)),
                 );
-                *p = (balance.rule)(&corners, 0.0);
+                *p = (balance.rule)(i, &corners);
             });
         let crossing = |a: u32, b: u32| balanced_crossing(mesh, field, regions, alpha, a, b);
         place_hull_vertices(topo, mesh, marked, &crossing, positions);
@@ -398,6 +408,11 @@ pub fn place_balanced(
         }
     }
     let best: Vec<f64> = search.iter().map(RootSearch::best).collect();
+    let missed: Vec<f64> = search
+        .iter()
+        .zip(&target)
+        .map(|(s, &t)| if s.done() { 0.0 } else { (s.miss() / t).abs() })
+        .collect();
     if best != alpha {
         alpha = best;
         place(&alpha, positions);
@@ -416,6 +431,7 @@ pub fn place_balanced(
     Balanced {
         corner_field,
         alpha,
+        missed,
     }
 }
 

@@ -12,6 +12,7 @@ pub mod extract;
 pub mod measure;
 pub mod mt;
 pub mod place;
+pub mod relax;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -107,6 +108,10 @@ pub struct Shell {
     pub quality: Quality,
 }
 
+/// A relaxed body whose balance misses its target by more than this share is balanced
+/// again at the paper's positions.
+const RELAXED_BALANCE_MISS: f64 = 1e-3;
+
 /// Default lattice resolution `N` of the curvature placement.
 pub const DEFAULT_CURVATURE_LATTICE: u32 = 7;
 
@@ -182,7 +187,8 @@ pub enum Triangulation {
 }
 
 /// Extracts the DMT surface of `values >= threshold` on `mesh`, closed at the hull, split
-/// into bodies (largest first) with their measures.
+/// into bodies (largest first) with their measures; IbC and CoI vertices are relaxed for
+/// shape ([`relax::DEFAULT_SWEEPS`]).
 ///
 /// `values` holds one finite value per mesh vertex (`mesh.points`).
 pub fn extract_shell(
@@ -191,6 +197,28 @@ pub fn extract_shell(
     threshold: f64,
     placement: Placement,
     triangulation: Triangulation,
+    progress: &dyn Progress,
+) -> Result<Shell, DmtError> {
+    extract_shell_relaxed(
+        mesh,
+        values,
+        threshold,
+        placement,
+        triangulation,
+        relax::DEFAULT_SWEEPS,
+        progress,
+    )
+}
+
+/// [`extract_shell`] with `relax_sweeps` sweeps of the shape relaxation of IbC and CoI
+/// vertices ([`relax`]; 0 keeps the paper's positions). Other placements ignore it.
+pub fn extract_shell_relaxed(
+    mesh: &TetMesh,
+    values: &[f64],
+    threshold: f64,
+    placement: Placement,
+    triangulation: Triangulation,
+    relax_sweeps: usize,
     progress: &dyn Progress,
 ) -> Result<Shell, DmtError> {
     check_inputs(mesh, values, threshold)?;
@@ -224,6 +252,7 @@ pub fn extract_shell(
         place_values
     };
     let balanced_placement = placement != Placement::Midpoint;
+    let relaxed = matches!(placement, Placement::Ibc | Placement::Coi) && relax_sweeps > 0;
     // The unbalanced placement; a balanced one starts from it to choose how each polygon is
     // cut.
     let (first_values, first_threshold) = if balanced_placement {
@@ -255,26 +284,138 @@ pub fn extract_shell(
         // drill holes misjudges a body's volume by tens of percent).
         let target = mt::region_volumes(mesh, values, threshold, &regions);
         let plan = plan_triangulation(&topo, &positions, triangulation, &edge_ends, None);
-        let balanced = distance::place_balanced(
-            &topo,
-            mesh,
-            &marked,
-            balance_field,
-            &regions,
-            &mut positions,
-            distance::Balance {
-                target: &target,
-                rule: if placement == Placement::Coi {
-                    place::coi
-                } else {
-                    place::ibc
-                },
-                steps: BALANCE_STEPS,
+        // IbC and CoI as weights on each vertex's crossings; the relaxation changes the
+        // weights for shape, and the balance keeps them.
+        let mut weights: Vec<[f64; 4]> = Vec::new();
+        if relaxed {
+            weights = (0..topo.active_tets)
+                .into_par_iter()
+                .map(|v| {
+                    let c = relax::corners(&topo, mesh, balance_field, v);
+                    if placement == Placement::Coi {
+                        place::coi_weights(&c, 0.0)
+                    } else {
+                        place::ibc_weights(&c, 0.0)
+                    }
+                })
+                .collect();
+            let crossing =
+                |a: u32, b: u32| hull_crossing(mesh, balance_field, 0.0, placement, a, b);
+            let surface = relax::Surface {
+                topo: &topo,
+                mesh,
+                field: balance_field,
                 plan: &plan,
-            },
-        );
+                edge_crossing: &crossing,
+                edge_ends: &edge_ends,
+            };
+            // The polygons keep the cut chosen for the paper's positions: the relaxation
+            // judges its moves on it and keeps its edges passing through (a cut chosen
+            // again for the moved vertices changed the sliver share by under 0.01 at
+            // twice the cost; docs/dmt.md).
+            relax::relax(&surface, &mut weights, &mut positions, relax_sweeps);
+        }
+        // The relaxed weights as factors on the rule's own: the rule keeps its response to
+        // the balanced values (IbC's weights depend on them; with fixed weights the balance
+        // of bodies in the long tetrahedra between drill holes can fail).
+        let base_weights = |c: &SortedCorners| {
+            if placement == Placement::Coi {
+                place::coi_weights(c, 0.0)
+            } else {
+                place::ibc_weights(c, 0.0)
+            }
+        };
+        if relaxed {
+            weights.par_iter_mut().enumerate().for_each(|(v, w)| {
+                let base = base_weights(&relax::corners(&topo, mesh, balance_field, v));
+                for (x, b) in w.iter_mut().zip(base) {
+                    *x = if b > 0.0 { *x / b } else { 0.0 };
+                }
+            });
+        }
+        let balance = |weights: &[[f64; 4]], plan: &Plan, positions: &mut [DVec3]| {
+            let by_weights = |v: usize, c: &SortedCorners| {
+                let base = base_weights(c);
+                let f = weights[v];
+                place::weighted(c, 0.0, &std::array::from_fn(|i| base[i] * f[i]))
+            };
+            let by_coi = |_: usize, c: &SortedCorners| place::coi(c, 0.0);
+            let by_ibc = |_: usize, c: &SortedCorners| place::ibc(c, 0.0);
+            let rule: &(dyn Fn(usize, &SortedCorners) -> DVec3 + Sync) = if relaxed {
+                &by_weights
+            } else if placement == Placement::Coi {
+                &by_coi
+            } else {
+                &by_ibc
+            };
+            distance::place_balanced(
+                &topo,
+                mesh,
+                &marked,
+                balance_field,
+                &regions,
+                positions,
+                distance::Balance {
+                    target: &target,
+                    rule,
+                    steps: BALANCE_STEPS,
+                    plan,
+                },
+            )
+        };
+        let mut balanced = balance(&weights, &plan, &mut positions);
+        // A relaxed body whose balance finds no root (in the long, flat tetrahedra between
+        // drill holes the relaxation can tip a small body over, or leave a large one out
+        // of the balance's reach) is placed at the paper's positions and balanced again.
+        if relaxed {
+            let failed: Vec<bool> = balanced
+                .missed
+                .iter()
+                .map(|&m| m > RELAXED_BALANCE_MISS)
+                .collect();
+            if failed.contains(&true) {
+                weights.par_iter_mut().enumerate().for_each(|(v, w)| {
+                    let VertexRole::Tet { tet } = topo.roles[v] else {
+                        unreachable!("DMT vertices come first")
+                    };
+                    let region = mesh.tets[tet as usize]
+                        .iter()
+                        .find(|&&p| marked[p as usize])
+                        .map(|&p| regions[p as usize] as usize);
+                    if region.is_some_and(|r| failed[r]) {
+                        *w = [1.0; 4];
+                    }
+                });
+                balanced = balance(&weights, &plan, &mut positions);
+            }
+        }
+        // Polygons whose cut no longer suits the balanced vertices are cut again, and the
+        // balance solved again on the new cut, so the output triangles carry the target
+        // volumes (the curvature placement moves its vertices after the balance and is cut
+        // again once, below).
+        let mut plan = plan;
+        if triangulation == Triangulation::MaxMinAngle
+            && !matches!(placement, Placement::Curvature { .. })
+        {
+            let crossing = |a: u32, b: u32| {
+                distance::balanced_crossing(mesh, balance_field, &regions, &balanced.alpha, a, b)
+            };
+            let realized = plan.realize(&topo, positions.clone(), &crossing);
+            let unsuited = plan.unsuited(&topo, &realized, &edge_ends);
+            if unsuited.contains(&true) {
+                plan = plan_triangulation(
+                    &topo,
+                    &positions,
+                    triangulation,
+                    &edge_ends,
+                    Some((&plan, &unsuited)),
+                );
+                balanced = balance(&weights, &plan, &mut positions);
+            }
+        }
         corner_field = balanced.corner_field;
         alpha = balanced.alpha;
+
         balance_plan = Some(plan);
     }
     if let Placement::Curvature { lattice } = placement {
@@ -335,6 +476,26 @@ pub fn extract_shell(
         .map(|&k| regions[polygon_marked_point(&topo, k as usize) as usize])
         .collect();
     let mut bodies = split_bodies(&topo, &positions, &triangles, &label);
+    // The relaxation can tip a body in the long, flat tetrahedra between drill holes over
+    // (its balance then finds no root); such a body takes its surface at the paper's
+    // positions instead.
+    if relaxed && bodies.iter().any(|b| b.volume <= 0.0) {
+        let paper = extract_shell_relaxed(
+            mesh,
+            values,
+            threshold,
+            placement,
+            triangulation,
+            0,
+            progress,
+        )?;
+        for body in bodies.iter_mut().filter(|b| b.volume <= 0.0) {
+            if let Some(p) = paper.bodies.iter().find(|p| p.region == body.region) {
+                *body = p.clone();
+            }
+        }
+        bodies.sort_by(|a, b| b.volume.total_cmp(&a.volume));
+    }
     // A closed, consistently wound surface around marked material encloses a positive
     // volume; on the long, flat tetrahedra between drill holes a DMT surface can still
     // fold over itself. Such a body becomes the marching-tetrahedra surface of the same
@@ -493,7 +654,7 @@ impl Plan {
     }
 
     /// The triangles of polygon `k` are `ranges[k]..ranges[k + 1]`.
-    fn polygon_ranges(&self, polygons: usize) -> Vec<usize> {
+    pub(crate) fn polygon_ranges(&self, polygons: usize) -> Vec<usize> {
         let mut ranges = vec![0; polygons + 1];
         for &k in &self.polygon_of {
             ranges[k as usize + 1] += 1;

@@ -61,42 +61,61 @@ impl SortedCorners {
 /// Intersection between Centroids (paper eq. 1 with the errata's case 1 correction).
 /// `c` must be active at `threshold` (1, 2 or 3 marked corners).
 pub fn ibc(c: &SortedCorners, threshold: f64) -> DVec3 {
+    weighted(c, threshold, &ibc_weights(c, threshold))
+}
+
+/// IbC as weights on the crossings of the active edges, in
+/// [`SortedCorners::active_edges`] order (summing to 1; unused entries 0).
+pub fn ibc_weights(c: &SortedCorners, threshold: f64) -> [f64; 4] {
     let f = c.f;
-    let v = |i, j| c.v(i, j, threshold);
-    match c.marked(threshold) {
+    let w = match c.marked(threshold) {
         // Case 1: a unmarked; the plane of V_ab, V_ac, V_ad met by the line from P_a to
         // the centroid of face bcd.
-        3 => {
-            let (wb, wc, wd) = (f[1] - f[0], f[2] - f[0], f[3] - f[0]);
-            (v(0, 1) * wb + v(0, 2) * wc + v(0, 3) * wd) / (wb + wc + wd)
-        }
-        // Case 2: a, b unmarked; the plane of the four crossings met by the line joining
-        // the midpoints of ab and cd.
-        2 => {
-            let (wad, wbd, wac, wbc) = (f[3] - f[0], f[3] - f[1], f[2] - f[0], f[2] - f[1]);
-            (v(0, 3) * wad + v(1, 3) * wbd + v(0, 2) * wac + v(1, 2) * wbc)
-                / (wad + wbd + wac + wbc)
-        }
+        3 => [f[1] - f[0], f[2] - f[0], f[3] - f[0], 0.0],
+        // Case 2: a, b unmarked; the plane of the four crossings (V_ac, V_ad, V_bc, V_bd)
+        // met by the line joining the midpoints of ab and cd.
+        2 => [f[2] - f[0], f[3] - f[0], f[2] - f[1], f[3] - f[1]],
         // Case 3: only d marked; case 1 mirrored.
-        1 => {
-            let (wa, wb, wc) = (f[3] - f[0], f[3] - f[1], f[3] - f[2]);
-            (v(0, 3) * wa + v(1, 3) * wb + v(2, 3) * wc) / (wa + wb + wc)
-        }
-        _ => coi(c, threshold),
+        1 => [f[3] - f[0], f[3] - f[1], f[3] - f[2], 0.0],
+        _ => return coi_weights(c, threshold),
+    };
+    let sum: f64 = w.iter().sum();
+    if sum > 0.0 && sum.is_finite() {
+        w.map(|x| x / sum)
+    } else {
+        coi_weights(c, threshold)
     }
 }
 
 /// Centroid of Intersections: the mean of the crossings on the active edges.
 pub fn coi(c: &SortedCorners, threshold: f64) -> DVec3 {
-    let (sum, n) = c
+    weighted(c, threshold, &coi_weights(c, threshold))
+}
+
+/// CoI as weights on the crossings (see [`ibc_weights`]).
+pub fn coi_weights(c: &SortedCorners, threshold: f64) -> [f64; 4] {
+    let n = c.active_edges(threshold).count();
+    let mut w = [0.0; 4];
+    for x in w.iter_mut().take(n) {
+        *x = 1.0 / n as f64;
+    }
+    w
+}
+
+/// The point with weights `w` on the crossings of the active edges (in
+/// [`SortedCorners::active_edges`] order); the centroid of the corners when `c` is not
+/// active.
+pub fn weighted(c: &SortedCorners, threshold: f64, w: &[f64; 4]) -> DVec3 {
+    let (sum, total) = c
         .active_edges(threshold)
-        .fold((DVec3::ZERO, 0.0), |(s, n), (i, j)| {
-            (s + c.v(i, j, threshold), n + 1.0)
+        .zip(w)
+        .fold((DVec3::ZERO, 0.0), |(s, t), ((i, j), &wi)| {
+            (s + c.v(i, j, threshold) * wi, t + wi)
         });
-    if n == 0.0 {
-        (c.p[0] + c.p[1] + c.p[2] + c.p[3]) / 4.0
+    if total > 0.0 {
+        sum / total
     } else {
-        sum / n
+        (c.p[0] + c.p[1] + c.p[2] + c.p[3]) / 4.0
     }
 }
 
@@ -213,6 +232,27 @@ mod tests {
                     let part = orient(p[i], p[j], p[k], v);
                     assert!(part / full > 0.0);
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn weights_on_the_crossings_give_the_rules_and_stay_inside_the_tetrahedron() {
+        let p = tet();
+        for (values, th) in [
+            ([0.1, 0.9, 1.7, 3.2], 0.6),
+            ([0.1, 0.9, 1.7, 3.2], 1.2),
+            ([0.1, 0.9, 1.7, 3.2], 2.0),
+        ] {
+            let c = SortedCorners::new(p, values);
+            let w = ibc_weights(&c, th);
+            assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+            assert!(w.iter().take(c.active_edges(th).count()).all(|&x| x > 0.0));
+            assert!((weighted(&c, th, &coi_weights(&c, th)) - coi(&c, th)).length() < 1e-12);
+            // Any positive weights (the relaxation's) keep the vertex inside.
+            let v = weighted(&c, th, &[0.7, 0.05, 0.2, 0.05]);
+            for (i, j, k, l) in [(0, 1, 2, 3), (1, 0, 3, 2), (2, 3, 0, 1), (3, 2, 1, 0)] {
+                assert!(orient(p[i], p[j], p[k], v) / orient(p[i], p[j], p[k], p[l]) > 0.0);
             }
         }
     }

@@ -62,6 +62,10 @@ pub struct ProcessInputs {
     /// Bodies with a smaller volume (input units cubed) are left out.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub min_volume: Option<f64>,
+    /// Sweeps of the shape relaxation of IbC and CoI vertices (0 to 50; default 3; 0 keeps
+    /// the paper's positions).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub relax: Option<u32>,
     /// Draw the drill-hole traces (line primitives) in the GLB; default true.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub well_traces: Option<bool>,
@@ -178,6 +182,14 @@ impl ProcessInputs {
                 "must be a finite number >= 0",
             ));
         }
+        if let Some(r) = self.relax
+            && r as usize > crate::dmt::relax::MAX_SWEEPS
+        {
+            return Err(InputError::new(
+                "relax",
+                format!("at most {} sweeps", crate::dmt::relax::MAX_SWEEPS),
+            ));
+        }
         if let Some(l) = self.composite_length
             && (!l.is_finite() || l <= 0.0)
         {
@@ -281,6 +293,9 @@ impl ProcessInputs {
                 .map(|scale| Anisotropy::scale(glam::DVec3::from_array(scale))),
             grid: None,
             min_volume: self.min_volume,
+            relax: self
+                .relax
+                .map_or(crate::dmt::relax::DEFAULT_SWEEPS, |r| r as usize),
         })
     }
 }

@@ -1,0 +1,346 @@
+//! Shape relaxation of the balanced grade placements (IbC, CoI): each DMT vertex slides
+//! within its tetrahedron's marching-tetrahedra polygon (the convex hull of the
+//! linear-interpolation crossings on its active edges, the polygon IbC and CoI already
+//! lie in) to where its triangles have the fewest slivers (smallest angle under 10
+//! degrees) and then the largest smallest angle.
+//!
+//! Why: on drilling meshes the tetrahedra are long and flat, and the paper's placements
+//! leave a third to a half of the triangles as slivers (docs/dmt.md). A vertex keeps its
+//! weights on the crossings, so the volume balance that follows moves it with them and each
+//! body still encloses marching tetrahedra's volume.
+//!
+//! Invariants: every weight stays at least [`MIN_WEIGHT`] (the vertex is strictly inside
+//! its polygon, hence inside its tetrahedron); a move never turns an incident triangle
+//! over (nor turns it by more than 45 degrees), never makes a dual polygon's cut unsuited
+//! (a triangle facing against the polygon's normal, or the polygon's Delaunay edge no longer
+//! let through once from back to front: the rules of the triangulation), nor grows the vertex's incident triangles' area by more than
+//! [`RING_AREA_GROWTH`] (a move may not buy shape with roughness); sweeps are Gauss-Seidel
+//! passes over a colouring in which no two corners of a polygon share a class (each class
+//! moves in parallel), so the result does not depend on threads.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::extract::{PolygonKind, Topology, VertexRole};
+use super::place::SortedCorners;
+use super::{Plan, newell_normal, separates};
+use crate::tet::TetMesh;
+
+/// Sweeps over the vertices by default (`wellmesh contour --relax`); 0 keeps the paper's
+/// positions.
+pub const DEFAULT_SWEEPS: usize = 3;
+
+/// The most sweeps a request may ask for (each costs about one placement of the surface).
+pub const MAX_SWEEPS: usize = 50;
+
+/// The most a move may grow the area of the vertex's incident triangles.
+pub const RING_AREA_GROWTH: f64 = 1.01;
+
+/// The cosine of the most an incident triangle may turn from its orientation at the paper's
+/// positions.
+pub const MAX_TURN_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
+/// The smallest weight a crossing keeps.
+pub const MIN_WEIGHT: f64 = 1e-3;
+
+/// Candidate moves: this share of the way towards one crossing (negative: away from it).
+const STEPS: [f64; 7] = [0.6, 0.4, 0.2, 0.1, -0.1, -0.2, -0.4];
+
+/// The sine of 10 degrees: triangles whose smallest angle has a smaller sine are slivers.
+pub const SLIVER_SINE: f64 = 0.173_648_177_666_930_33;
+
+/// The sine of a triangle's smallest angle (0 when degenerate).
+pub fn min_angle_sine(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let cross = (b - a).cross(c - a);
+    let [e0, e1, e2] = [
+        (b - a).length_squared(),
+        (c - b).length_squared(),
+        (a - c).length_squared(),
+    ];
+    let shortest = e0.min(e1).min(e2);
+    let longest = e0.max(e1).max(e2);
+    // Twice the area over the two longer edges, which meet at the smallest angle.
+    let sine = cross.length() / (longest * (e0 + e1 + e2 - longest - shortest)).sqrt();
+    if sine.is_finite() { sine.min(1.0) } else { 0.0 }
+}
+
+/// The triangles incident to each vertex: `inc[start[v]..start[v + 1]]`.
+struct Incidence {
+    start: Vec<u32>,
+    inc: Vec<u32>,
+}
+
+impl Incidence {
+    fn new(triangles: &[[u32; 3]], vertices: usize) -> Self {
+        let mut start = vec![0u32; vertices + 1];
+        for t in triangles {
+            for &v in t {
+                start[v as usize + 1] += 1;
+            }
+        }
+        for i in 0..vertices {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut inc = vec![0u32; triangles.len() * 3];
+        for (ti, t) in triangles.iter().enumerate() {
+            for &v in t {
+                inc[fill[v as usize] as usize] = ti as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        Incidence { start, inc }
+    }
+
+    fn of(&self, v: usize) -> &[u32] {
+        &self.inc[self.start[v] as usize..self.start[v + 1] as usize]
+    }
+}
+
+/// The corners of DMT vertex `v`'s tetrahedron on `field` (threshold 0).
+pub fn corners(topo: &Topology, mesh: &TetMesh, field: &[f64], v: usize) -> SortedCorners {
+    let VertexRole::Tet { tet } = topo.roles[v] else {
+        unreachable!("DMT vertices come first")
+    };
+    let tv = mesh.tets[tet as usize];
+    SortedCorners::new(
+        tv.map(|p| mesh.points[p as usize]),
+        tv.map(|p| field[p as usize]),
+    )
+}
+
+/// What the relaxation works on.
+#[derive(Clone, Copy)]
+pub struct Surface<'a> {
+    pub topo: &'a Topology,
+    pub mesh: &'a TetMesh,
+    /// The field whose zero level the crossings lie on (one value per mesh vertex).
+    pub field: &'a [f64],
+    /// The triangles whose shape is judged.
+    pub plan: &'a Plan,
+    /// Where an added crossing vertex (`Added::Crossing`) sits.
+    pub edge_crossing: &'a (dyn Fn(u32, u32) -> DVec3 + Sync),
+    /// The end points of a Delaunay edge.
+    pub edge_ends: &'a (dyn Fn(u32, u32) -> (DVec3, DVec3) + Sync),
+}
+
+/// Relaxes the DMT vertices (`positions[..topo.active_tets]`, with `weights` on their
+/// crossings of `field` at threshold 0) for at most `sweeps` sweeps over the triangles of
+/// `plan`, or until no vertex moves. Returns the number of moves.
+pub fn relax(
+    surface: &Surface<'_>,
+    weights: &mut [[f64; 4]],
+    positions: &mut [DVec3],
+    sweeps: usize,
+) -> usize {
+    let Surface {
+        topo,
+        mesh,
+        field,
+        plan,
+        edge_crossing,
+        edge_ends,
+    } = *surface;
+    let n = topo.active_tets;
+    let triangles = &plan.triangles;
+    let mut realized = plan.realize(topo, positions.to_vec(), edge_crossing);
+    let incidence = Incidence::new(triangles, realized.len());
+    let orientation: Vec<DVec3> = triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| realized[i as usize]);
+            (b - a).cross(c - a)
+        })
+        .collect();
+    let ranges = plan.polygon_ranges(topo.polygon_count());
+    let polygon_triangles = |k: usize| ranges[k]..ranges[k + 1];
+    // Dual polygons whose cut lets their edge through: a move must keep it so.
+    let guarded: Vec<bool> = (0..topo.polygon_count())
+        .map(|k| {
+            if topo.kinds[k] != PolygonKind::Dual || topo.dual_open[k] {
+                return false;
+            }
+            let (a, b) = topo.dual_edges[k];
+            let (pa, pb) = edge_ends(a, b);
+            separates(
+                pa,
+                pb,
+                triangles[polygon_triangles(k)]
+                    .iter()
+                    .map(|t| t.map(|i| realized[i as usize])),
+            )
+        })
+        .collect();
+    // Vertices that share a polygon move in different colour classes: a vertex's score
+    // reads only the corners of its own polygons, so each class moves in parallel with
+    // the result of a sequential pass in class order.
+    let classes = colour_classes(topo, plan, &incidence, n);
+    let evaluate = |v: usize, realized: &[DVec3], w: [f64; 4]| -> Option<([f64; 4], DVec3)> {
+        let tris = incidence.of(v);
+        let at = |t: [u32; 3], x: DVec3| {
+            t.map(|i| {
+                if i as usize == v {
+                    x
+                } else {
+                    realized[i as usize]
+                }
+            })
+        };
+        let area = |x: DVec3| -> f64 {
+            tris.iter()
+                .map(|&ti| {
+                    let [a, b, c] = at(triangles[ti as usize], x);
+                    (b - a).cross(c - a).length()
+                })
+                .sum()
+        };
+        // (slivers, smallest sine), or None for a move that turns a triangle too far.
+        let score = |x: DVec3| -> Option<(usize, f64)> {
+            let mut slivers = 0;
+            let mut worst = 1.0f64;
+            for &ti in tris {
+                let [a, b, c] = at(triangles[ti as usize], x);
+                let normal = (b - a).cross(c - a);
+                let was = orientation[ti as usize];
+                if normal.dot(was) <= MAX_TURN_COS * normal.length() * was.length() {
+                    return None;
+                }
+                let s = min_angle_sine(a, b, c);
+                slivers += usize::from(s < SLIVER_SINE);
+                worst = worst.min(s);
+            }
+            Some((slivers, worst))
+        };
+        let here_pos = realized[v];
+        let here = score(here_pos).unwrap_or((usize::MAX, -1.0));
+        if here.0 == 0 {
+            return None;
+        }
+        let mut polygons: Vec<usize> = Vec::new();
+        for &ti in tris {
+            let k = plan.polygon_of[ti as usize] as usize;
+            if guarded[k] && !polygons.contains(&k) {
+                polygons.push(k);
+            }
+        }
+        // The cut must still suit each guarded polygon: no triangle facing against the
+        // polygon's normal, and the polygon's edge let through once from back to front.
+        let mut corners_at: Vec<DVec3> = Vec::new();
+        let mut keeps_cut = |x: DVec3| -> bool {
+            polygons.iter().all(|&k| {
+                corners_at.clear();
+                corners_at.extend(topo.polygon(k).iter().map(|&i| {
+                    if i as usize == v {
+                        x
+                    } else {
+                        realized[i as usize]
+                    }
+                }));
+                let normal = newell_normal(&corners_at);
+                let tris = &triangles[polygon_triangles(k)];
+                let faces_out = tris.iter().all(|&t| {
+                    let [a, b, c] = at(t, x);
+                    (b - a).cross(c - a).dot(normal) > 0.0
+                });
+                let (a, b) = topo.dual_edges[k];
+                let (pa, pb) = edge_ends(a, b);
+                faces_out && separates(pa, pb, tris.iter().map(|&t| at(t, x)))
+            })
+        };
+        let area_limit = area(here_pos) * RING_AREA_GROWTH;
+        let c = corners(topo, mesh, field, v);
+        let crossings: Vec<DVec3> = c.active_edges(0.0).map(|(i, j)| c.v(i, j, 0.0)).collect();
+        let mut best: Option<((usize, f64), [f64; 4], DVec3)> = None;
+        for k in 0..crossings.len() {
+            for s in STEPS {
+                let mut cand = w.map(|x| x * (1.0 - s));
+                cand[k] += s;
+                if cand[..crossings.len()].iter().any(|&x| x < MIN_WEIGHT) {
+                    continue;
+                }
+                let x: DVec3 = crossings.iter().zip(&cand).map(|(&q, &wq)| q * wq).sum();
+                if area(x) > area_limit {
+                    continue;
+                }
+                let Some(sc) = score(x) else {
+                    continue;
+                };
+                let to_beat = best.map_or(here, |b| b.0);
+                if (sc.0 < to_beat.0 || (sc.0 == to_beat.0 && sc.1 > to_beat.1)) && keeps_cut(x) {
+                    best = Some((sc, cand, x));
+                }
+            }
+        }
+        best.map(|(_, w, x)| (w, x))
+    };
+    let mut moves = 0;
+    for sweep in 0..sweeps {
+        if sweep > 0 {
+            // Added vertices (polygon centroids) follow their corners.
+            realized = plan.realize(topo, positions.to_vec(), edge_crossing);
+        }
+        let mut moved = 0;
+        for class in &classes {
+            let updates: Vec<(u32, [f64; 4], DVec3)> = class
+                .par_iter()
+                .filter_map(|&v| {
+                    evaluate(v as usize, &realized, weights[v as usize]).map(|(w, x)| (v, w, x))
+                })
+                .collect();
+            moved += updates.len();
+            for (v, w, x) in updates {
+                weights[v as usize] = w;
+                positions[v as usize] = x;
+                realized[v as usize] = x;
+            }
+        }
+        moves += moved;
+        if moved == 0 {
+            break;
+        }
+    }
+    moves
+}
+
+/// Greedy colouring of the DMT vertices such that no two corners of one polygon share a
+/// colour; the classes in colour order, each in vertex order.
+fn colour_classes(topo: &Topology, plan: &Plan, incidence: &Incidence, n: usize) -> Vec<Vec<u32>> {
+    let ranges = plan.polygon_ranges(topo.polygon_count());
+    let mut colour = vec![u32::MAX; n];
+    // stamp[c] == v + 1: colour c is taken by a neighbour of v.
+    let mut stamp: Vec<usize> = Vec::new();
+    let mut classes: Vec<Vec<u32>> = Vec::new();
+    let mut polygons: Vec<usize> = Vec::new();
+    for v in 0..n {
+        polygons.clear();
+        for &ti in incidence.of(v) {
+            let k = plan.polygon_of[ti as usize] as usize;
+            if !polygons.contains(&k) {
+                polygons.push(k);
+            }
+        }
+        for &k in &polygons {
+            for t in &plan.triangles[ranges[k]..ranges[k + 1]] {
+                for &w in t {
+                    let w = w as usize;
+                    if w < n && colour[w] != u32::MAX {
+                        let c = colour[w] as usize;
+                        if stamp.len() <= c {
+                            stamp.resize(c + 1, 0);
+                        }
+                        stamp[c] = v + 1;
+                    }
+                }
+            }
+        }
+        let c = (0..)
+            .find(|&c| stamp.get(c).is_none_or(|&s| s != v + 1))
+            .unwrap_or(0);
+        colour[v] = c as u32;
+        if classes.len() <= c {
+            classes.resize_with(c + 1, Vec::new);
+        }
+        classes[c].push(v as u32);
+    }
+    classes
+}
