@@ -476,26 +476,6 @@ pub fn extract_shell_relaxed(
         .map(|&k| regions[polygon_marked_point(&topo, k as usize) as usize])
         .collect();
     let mut bodies = split_bodies(&topo, &positions, &triangles, &label);
-    // The relaxation can tip a body in the long, flat tetrahedra between drill holes over
-    // (its balance then finds no root); such a body takes its surface at the paper's
-    // positions instead.
-    if relaxed && bodies.iter().any(|b| b.volume <= 0.0) {
-        let paper = extract_shell_relaxed(
-            mesh,
-            values,
-            threshold,
-            placement,
-            triangulation,
-            0,
-            progress,
-        )?;
-        for body in bodies.iter_mut().filter(|b| b.volume <= 0.0) {
-            if let Some(p) = paper.bodies.iter().find(|p| p.region == body.region) {
-                *body = p.clone();
-            }
-        }
-        bodies.sort_by(|a, b| b.volume.total_cmp(&a.volume));
-    }
     // A closed, consistently wound surface around marked material encloses a positive
     // volume; on the long, flat tetrahedra between drill holes a DMT surface can still
     // fold over itself. Such a body becomes the marching-tetrahedra surface of the same
