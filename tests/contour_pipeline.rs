@@ -205,6 +205,19 @@ fn relaxed_grade_shells_have_at_most_half_the_slivers_of_marching_tetrahedra_and
 }
 
 #[test]
+fn the_relaxed_surface_is_the_same_on_one_thread_and_on_many() {
+    let samples = wells(24, 25.0, 1.0, 0.0, -240.0, 7, |p| Some(ellipsoid_grade(p)));
+    let r = request(samples, vec![0.0], Some(Method::Dmt(Placement::Ibc)));
+    let many = contour::run(&r, &NoProgress).expect("contour");
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| contour::run(&r, &NoProgress).expect("contour"));
+    assert_eq!(many.shells[0].bodies, one.shells[0].bodies);
+}
+
+#[test]
 fn binary_wells_give_a_smooth_closed_body_with_the_curvature_placement_by_default() {
     let samples = wells(13, 30.0, 2.0, 0.0, -240.0, 11, |p| {
         Some(if ellipsoid_grade(p) >= 0.0 { 1.0 } else { 0.0 })

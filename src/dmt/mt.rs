@@ -570,11 +570,15 @@ pub fn region_volumes(mesh: &TetMesh, values: &[f64], threshold: f64, regions: &
     let cone = |apex: DVec3, a: DVec3, b: DVec3, c: DVec3| {
         ((a - apex).dot((b - apex).cross(c - apex)) / 6.0).abs()
     };
-    mesh.tets
-        .par_iter()
-        .fold(
-            || vec![0.0; len],
-            |mut acc, tet| {
+    // Fixed chunks summed in order: the result does not depend on the thread count or on
+    // scheduling (at most about 4M partial sums in flight).
+    let chunks = (4_000_000 / len.max(1)).clamp(1, mesh.tets.len().div_ceil(4096).max(1));
+    let chunk = mesh.tets.len().div_ceil(chunks).max(1);
+    let partial: Vec<Vec<f64>> = mesh
+        .tets
+        .par_chunks(chunk)
+        .map(|tets| {
+            tets.iter().fold(vec![0.0; len], |mut acc, tet| {
                 let marked = tet.map(|v| values[v as usize] >= threshold);
                 let m = marked.iter().filter(|&&x| x).count();
                 if m == 0 {
@@ -627,17 +631,15 @@ pub fn region_volumes(mesh: &TetMesh, values: &[f64], threshold: f64, regions: &
                     acc[r as usize] += volume;
                 }
                 acc
-            },
-        )
-        .reduce(
-            || vec![0.0; len],
-            |mut a, b| {
-                for (x, y) in a.iter_mut().zip(b) {
-                    *x += y;
-                }
-                a
-            },
-        )
+            })
+        })
+        .collect();
+    partial.into_iter().fold(vec![0.0; len], |mut a, b| {
+        for (x, y) in a.iter_mut().zip(b) {
+            *x += y;
+        }
+        a
+    })
 }
 
 /// No marked region (see [`marked_regions`]).

@@ -382,6 +382,33 @@ mod tests {
     }
 
     #[test]
+    fn relaxation_sweeps_are_bounded_and_reach_the_request() {
+        let mut inputs = samples(3);
+        inputs.relax = Some(51);
+        let err = inputs.validate(10).unwrap_err();
+        assert_eq!(err.field, "relax");
+        assert!(err.reason.contains("50"), "{}", err.reason);
+        let set = crate::wells::SampleSet {
+            origin: glam::DVec3::ZERO,
+            crs: None,
+            unit: "m".into(),
+            wells: Vec::new(),
+            points: Vec::new(),
+            values: Vec::new(),
+            well_of: Vec::new(),
+            report: Default::default(),
+        };
+        inputs.relax = Some(0);
+        assert_eq!(inputs.validate(10), Ok(()));
+        assert_eq!(inputs.contour_request(set.clone()).unwrap().relax, 0);
+        inputs.relax = None;
+        assert_eq!(
+            inputs.contour_request(set).unwrap().relax,
+            crate::dmt::relax::DEFAULT_SWEEPS
+        );
+    }
+
+    #[test]
     fn no_source_or_two_sources_are_refused() {
         let mut inputs = samples(1);
         inputs.samples_csv = None;
