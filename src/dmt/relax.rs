@@ -146,7 +146,7 @@ pub fn relax(
     let mut realized = plan.realize(topo, positions.to_vec(), edge_crossing);
     let incidence = Incidence::new(triangles, realized.len());
     let orientation: Vec<DVec3> = triangles
-        .iter()
+        .par_iter()
         .map(|t| {
             let [a, b, c] = t.map(|i| realized[i as usize]);
             (b - a).cross(c - a)
@@ -156,6 +156,7 @@ pub fn relax(
     let polygon_triangles = |k: usize| ranges[k]..ranges[k + 1];
     // Dual polygons whose cut lets their edge through: a move must keep it so.
     let guarded: Vec<bool> = (0..topo.polygon_count())
+        .into_par_iter()
         .map(|k| {
             if topo.kinds[k] != PolygonKind::Dual || topo.dual_open[k] {
                 return false;
@@ -174,7 +175,18 @@ pub fn relax(
     // Vertices that share a polygon move in different colour classes: a vertex's score
     // reads only the corners of its own polygons, so each class moves in parallel with
     // the result of a sequential pass in class order.
-    let classes = colour_classes(topo, plan, &incidence, n);
+    // Only vertices with a sliver among their triangles at the paper's positions move (on a
+    // grid a few percent of them).
+    let movable: Vec<bool> = (0..n)
+        .into_par_iter()
+        .map(|v| {
+            incidence.of(v).iter().any(|&ti| {
+                let [a, b, c] = triangles[ti as usize].map(|i| realized[i as usize]);
+                min_angle_sine(a, b, c) < SLIVER_SINE
+            })
+        })
+        .collect();
+    let classes = colour_classes(plan, &incidence, &movable);
     let evaluate = |v: usize, realized: &[DVec3], w: [f64; 4]| -> Option<([f64; 4], DVec3)> {
         let tris = incidence.of(v);
         let at = |t: [u32; 3], x: DVec3| {
@@ -302,16 +314,23 @@ pub fn relax(
     moves
 }
 
-/// Greedy colouring of the DMT vertices such that no two corners of one polygon share a
-/// colour; the classes in colour order, each in vertex order.
-fn colour_classes(topo: &Topology, plan: &Plan, incidence: &Incidence, n: usize) -> Vec<Vec<u32>> {
-    let ranges = plan.polygon_ranges(topo.polygon_count());
+/// Greedy colouring of the `movable` DMT vertices such that no two corners of one polygon
+/// share a colour; the classes in colour order, each in vertex order.
+fn colour_classes(plan: &Plan, incidence: &Incidence, movable: &[bool]) -> Vec<Vec<u32>> {
+    let n = movable.len();
+    let polygons_total = plan
+        .polygon_of
+        .iter()
+        .map(|&k| k as usize + 1)
+        .max()
+        .unwrap_or(0);
+    let ranges = plan.polygon_ranges(polygons_total);
     let mut colour = vec![u32::MAX; n];
     // stamp[c] == v + 1: colour c is taken by a neighbour of v.
     let mut stamp: Vec<usize> = Vec::new();
     let mut classes: Vec<Vec<u32>> = Vec::new();
     let mut polygons: Vec<usize> = Vec::new();
-    for v in 0..n {
+    for v in (0..n).filter(|&v| movable[v]) {
         polygons.clear();
         for &ti in incidence.of(v) {
             let k = plan.polygon_of[ti as usize] as usize;

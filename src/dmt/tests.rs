@@ -285,6 +285,22 @@ fn timing_on_a_large_grid() {
             shell.quality.triangles
         );
     }
+    let t0 = std::time::Instant::now();
+    let shell = extract_shell_relaxed(
+        &mesh,
+        &values,
+        0.0,
+        Placement::Ibc,
+        Triangulation::default(),
+        0,
+        &NoProgress,
+    )
+    .unwrap();
+    eprintln!(
+        "Ibc at the paper's positions: {:.3} s, slivers {:.3}",
+        t0.elapsed().as_secs_f64(),
+        shell.quality.min_angle_under_10deg
+    );
 }
 
 #[test]
