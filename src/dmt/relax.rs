@@ -198,36 +198,43 @@ pub fn relax(
                 }
             })
         };
-        let area = |x: DVec3| -> f64 {
-            tris.iter()
-                .map(|&ti| {
-                    let [a, b, c] = at(triangles[ti as usize], x);
-                    (b - a).cross(c - a).length()
-                })
-                .sum()
-        };
-        // (slivers, smallest sine), or None for a move that turns a triangle too far.
-        let score = |x: DVec3| -> Option<(usize, f64)> {
+        // (slivers, smallest sine, twice the area) of the incident triangles with the
+        // vertex at `x`, or None for a move that turns a triangle too far. Only the
+        // triangles holding `v` change, so only they are judged.
+        let judge = |x: DVec3| -> Option<(usize, f64, f64)> {
             let mut slivers = 0;
             let mut worst = 1.0f64;
+            let mut area = 0.0;
             for &ti in tris {
                 let [a, b, c] = at(triangles[ti as usize], x);
                 let normal = (b - a).cross(c - a);
+                let length = normal.length();
                 let was = orientation[ti as usize];
-                if normal.dot(was) <= MAX_TURN_COS * normal.length() * was.length() {
+                if normal.dot(was) <= MAX_TURN_COS * length * was.length() {
                     return None;
                 }
-                let s = min_angle_sine(a, b, c);
-                slivers += usize::from(s < SLIVER_SINE);
-                worst = worst.min(s);
+                let [e0, e1, e2] = [
+                    (b - a).length_squared(),
+                    (c - b).length_squared(),
+                    (a - c).length_squared(),
+                ];
+                let shortest = e0.min(e1).min(e2);
+                let longest = e0.max(e1).max(e2);
+                let sine =
+                    (length / (longest * (e0 + e1 + e2 - longest - shortest)).sqrt()).min(1.0);
+                let sine = if sine.is_finite() { sine } else { 0.0 };
+                slivers += usize::from(sine < SLIVER_SINE);
+                worst = worst.min(sine);
+                area += length;
             }
-            Some((slivers, worst))
+            Some((slivers, worst, area))
         };
         let here_pos = realized[v];
-        let here = score(here_pos).unwrap_or((usize::MAX, -1.0));
-        if here.0 == 0 {
-            return None;
-        }
+        let (here, area_limit) = match judge(here_pos) {
+            Some((0, ..)) => return None,
+            Some((slivers, worst, area)) => ((slivers, worst), area * RING_AREA_GROWTH),
+            None => ((usize::MAX, -1.0), f64::INFINITY),
+        };
         let mut polygons: Vec<usize> = Vec::new();
         for &ti in tris {
             let k = plan.polygon_of[ti as usize] as usize;
@@ -259,7 +266,6 @@ pub fn relax(
                 faces_out && separates(pa, pb, tris.iter().map(|&t| at(t, x)))
             })
         };
-        let area_limit = area(here_pos) * RING_AREA_GROWTH;
         let c = corners(topo, mesh, field, v);
         let crossings: Vec<DVec3> = c.active_edges(0.0).map(|(i, j)| c.v(i, j, 0.0)).collect();
         let mut best: Option<((usize, f64), [f64; 4], DVec3)> = None;
@@ -271,12 +277,13 @@ pub fn relax(
                     continue;
                 }
                 let x: DVec3 = crossings.iter().zip(&cand).map(|(&q, &wq)| q * wq).sum();
-                if area(x) > area_limit {
-                    continue;
-                }
-                let Some(sc) = score(x) else {
+                let Some((slivers, worst, area)) = judge(x) else {
                     continue;
                 };
+                if area > area_limit {
+                    continue;
+                }
+                let sc = (slivers, worst);
                 let to_beat = best.map_or(here, |b| b.0);
                 if (sc.0 < to_beat.0 || (sc.0 == to_beat.0 && sc.1 > to_beat.1)) && keeps_cut(x) {
                     best = Some((sc, cand, x));
