@@ -51,7 +51,11 @@ pub const SLIVER_SINE: f64 = 0.173_648_177_666_930_33;
 
 /// The sine of a triangle's smallest angle (0 when degenerate).
 pub fn min_angle_sine(a: DVec3, b: DVec3, c: DVec3) -> f64 {
-    let cross = (b - a).cross(c - a);
+    sine_from_area(a, b, c, (b - a).cross(c - a).length())
+}
+
+/// [`min_angle_sine`] given twice the triangle's area.
+fn sine_from_area(a: DVec3, b: DVec3, c: DVec3, twice_area: f64) -> f64 {
     let [e0, e1, e2] = [
         (b - a).length_squared(),
         (c - b).length_squared(),
@@ -60,7 +64,7 @@ pub fn min_angle_sine(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     let shortest = e0.min(e1).min(e2);
     let longest = e0.max(e1).max(e2);
     // Twice the area over the two longer edges, which meet at the smallest angle.
-    let sine = cross.length() / (longest * (e0 + e1 + e2 - longest - shortest)).sqrt();
+    let sine = twice_area / (longest * (e0 + e1 + e2 - longest - shortest)).sqrt();
     if sine.is_finite() { sine.min(1.0) } else { 0.0 }
 }
 
@@ -108,6 +112,10 @@ pub fn corners(topo: &Topology, mesh: &TetMesh, field: &[f64], v: usize) -> Sort
         tv.map(|p| field[p as usize]),
     )
 }
+
+/// A candidate move: its (slivers, smallest sine), its order among the candidates, its
+/// weights and its position.
+type Candidate = ((usize, f64), usize, [f64; 4], DVec3);
 
 /// What the relaxation works on.
 #[derive(Clone, Copy)]
@@ -213,16 +221,7 @@ pub fn relax(
                 if normal.dot(was) <= MAX_TURN_COS * length * was.length() {
                     return None;
                 }
-                let [e0, e1, e2] = [
-                    (b - a).length_squared(),
-                    (c - b).length_squared(),
-                    (a - c).length_squared(),
-                ];
-                let shortest = e0.min(e1).min(e2);
-                let longest = e0.max(e1).max(e2);
-                let sine =
-                    (length / (longest * (e0 + e1 + e2 - longest - shortest)).sqrt()).min(1.0);
-                let sine = if sine.is_finite() { sine } else { 0.0 };
+                let sine = sine_from_area(a, b, c, length);
                 slivers += usize::from(sine < SLIVER_SINE);
                 worst = worst.min(sine);
                 area += length;
@@ -268,7 +267,10 @@ pub fn relax(
         };
         let c = corners(topo, mesh, field, v);
         let crossings: Vec<DVec3> = c.active_edges(0.0).map(|(i, j)| c.v(i, j, 0.0)).collect();
-        let mut best: Option<((usize, f64), [f64; 4], DVec3)> = None;
+        // Candidates that beat the current position, best first (ties in candidate
+        // order); the first whose polygons' cuts still suit it is taken, so the costly
+        // cut check runs on as few candidates as possible.
+        let mut better: Vec<Candidate> = Vec::new();
         for k in 0..crossings.len() {
             for s in STEPS {
                 let mut cand = w.map(|x| x * (1.0 - s));
@@ -283,14 +285,21 @@ pub fn relax(
                 if area > area_limit {
                     continue;
                 }
-                let sc = (slivers, worst);
-                let to_beat = best.map_or(here, |b| b.0);
-                if (sc.0 < to_beat.0 || (sc.0 == to_beat.0 && sc.1 > to_beat.1)) && keeps_cut(x) {
-                    best = Some((sc, cand, x));
+                if slivers < here.0 || (slivers == here.0 && worst > here.1) {
+                    better.push(((slivers, worst), better.len(), cand, x));
                 }
             }
         }
-        best.map(|(_, w, x)| (w, x))
+        better.sort_by(|a, b| {
+            a.0.0
+                .cmp(&b.0.0)
+                .then(b.0.1.total_cmp(&a.0.1))
+                .then(a.1.cmp(&b.1))
+        });
+        better
+            .into_iter()
+            .find(|c| keeps_cut(c.3))
+            .map(|(_, _, w, x)| (w, x))
     };
     let mut moves = 0;
     for sweep in 0..sweeps {
