@@ -257,6 +257,8 @@ pub struct Balanced {
     /// Per region: how far the balanced volume misses its target, as a share of it
     /// (0 when met to the tolerance; larger when no balance in range reaches it).
     pub missed: Vec<f64>,
+    /// The region of each surface vertex (`topo.roles` order).
+    pub vertex_region: Vec<u32>,
 }
 
 /// The balanced crossing on the active edge from marked `a` to unmarked `b`.
@@ -432,6 +434,7 @@ pub fn place_balanced(
         corner_field,
         alpha,
         missed,
+        vertex_region,
     }
 }
 

@@ -286,19 +286,20 @@ pub fn extract_shell_relaxed(
         let plan = plan_triangulation(&topo, &positions, triangulation, &edge_ends, None);
         // IbC and CoI as weights on each vertex's crossings; the relaxation changes the
         // weights for shape, and the balance keeps them.
+        let base_weights = |c: &SortedCorners| {
+            if placement == Placement::Coi {
+                place::coi_weights(c, 0.0)
+            } else {
+                place::ibc_weights(c, 0.0)
+            }
+        };
         let mut weights: Vec<[f64; 4]> = Vec::new();
         if relaxed {
-            weights = (0..topo.active_tets)
+            let paper: Vec<[f64; 4]> = (0..topo.active_tets)
                 .into_par_iter()
-                .map(|v| {
-                    let c = relax::corners(&topo, mesh, balance_field, v);
-                    if placement == Placement::Coi {
-                        place::coi_weights(&c, 0.0)
-                    } else {
-                        place::ibc_weights(&c, 0.0)
-                    }
-                })
+                .map(|v| base_weights(&relax::corners(&topo, mesh, balance_field, v)))
                 .collect();
+            weights = paper.clone();
             let crossing =
                 |a: u32, b: u32| hull_crossing(mesh, balance_field, 0.0, placement, a, b);
             let surface = relax::Surface {
@@ -314,21 +315,12 @@ pub fn extract_shell_relaxed(
             // again for the moved vertices changed the sliver share by under 0.01 at
             // twice the cost; docs/dmt.md).
             relax::relax(&surface, &mut weights, &mut positions, relax_sweeps);
-        }
-        // The relaxed weights as factors on the rule's own: the rule keeps its response to
-        // the balanced values (IbC's weights depend on them; with fixed weights the balance
-        // of bodies in the long tetrahedra between drill holes can fail).
-        let base_weights = |c: &SortedCorners| {
-            if placement == Placement::Coi {
-                place::coi_weights(c, 0.0)
-            } else {
-                place::ibc_weights(c, 0.0)
-            }
-        };
-        if relaxed {
-            weights.par_iter_mut().enumerate().for_each(|(v, w)| {
-                let base = base_weights(&relax::corners(&topo, mesh, balance_field, v));
-                for (x, b) in w.iter_mut().zip(base) {
+            // The relaxed weights as factors on the rule's own: the rule keeps its
+            // response to the balanced values (IbC's weights depend on them; with fixed
+            // weights the balance of bodies in the long tetrahedra between drill holes can
+            // fail).
+            weights.par_iter_mut().zip(&paper).for_each(|(w, base)| {
+                for (x, &b) in w.iter_mut().zip(base) {
                     *x = if b > 0.0 { *x / b } else { 0.0 };
                 }
             });
@@ -374,18 +366,14 @@ pub fn extract_shell_relaxed(
                 .map(|&m| m > RELAXED_BALANCE_MISS)
                 .collect();
             if failed.contains(&true) {
-                weights.par_iter_mut().enumerate().for_each(|(v, w)| {
-                    let VertexRole::Tet { tet } = topo.roles[v] else {
-                        unreachable!("DMT vertices come first")
-                    };
-                    let region = mesh.tets[tet as usize]
-                        .iter()
-                        .find(|&&p| marked[p as usize])
-                        .map(|&p| regions[p as usize] as usize);
-                    if region.is_some_and(|r| failed[r]) {
-                        *w = [1.0; 4];
-                    }
-                });
+                weights
+                    .par_iter_mut()
+                    .zip(&balanced.vertex_region)
+                    .for_each(|(w, &r)| {
+                        if failed[r as usize] {
+                            *w = [1.0; 4];
+                        }
+                    });
                 balanced = balance(&weights, &plan, &mut positions);
             }
         }
