@@ -16,8 +16,8 @@ use std::sync::atomic::Ordering::Relaxed;
 
 use super::exact_int::Grid;
 use super::predicates::{self, Sign};
-use super::sort::brio_hilbert_order;
-use super::{NO_NEIGHBOUR, TetError, TetMesh};
+use super::sort::{InsertionOrder, insertion_order};
+use super::{FACE_OUTWARD, NO_NEIGHBOUR, TetError, TetMesh};
 use crate::progress::Progress;
 
 /// The vertex at infinity of ghost tetrahedra (never in a finished [`TetMesh`]).
@@ -36,6 +36,13 @@ pub const MAX_POINTS: usize = DEAD as usize;
 const CHECK_EVERY: usize = 4096;
 /// Empty slot of the edge table.
 const EMPTY: u64 = u64::MAX;
+/// Boundary vertices (the infinite one included) of a star linked through the edge
+/// matrix; larger stars use the edge table.
+const STAR_VERTICES: usize = 32;
+/// Slots of the star's vertex table (a power of two, twice [`STAR_VERTICES`]).
+const VERTEX_SLOTS: usize = 64;
+/// An empty slot of the star's vertex table (no vertex has this id).
+const NO_VERTEX: u32 = u32::MAX;
 /// Zones (and workers) of the parallel insertion. Fixed, not taken from the machine, so
 /// the output (down to the order of the tetrahedra) is the same on any number of threads.
 const ZONES: usize = 2;
@@ -81,31 +88,24 @@ fn build_in_zones(
     for p in &mut points {
         *p += DVec3::ZERO;
     }
-    let (mut vertex_of_input, scratch) = merge_duplicates(&mut points);
-    let duplicates_merged = vertex_of_input.len() - points.len();
-    if points.len() < 4 {
+    // Vertices are numbered in insertion order, so the points the construction touches
+    // one after the other are neighbours in memory too; equal points are merged on the
+    // way.
+    let InsertionOrder {
+        order,
+        vertex_of_input,
+        rounds,
+    } = insertion_order(&points);
+    let duplicates_merged = vertex_of_input.len() - order.len();
+    if order.len() < 4 {
         return Err(TetError::TooFewPoints {
-            distinct: points.len(),
+            distinct: order.len(),
         });
     }
-    // Vertices are numbered in insertion order, so the points the construction touches
-    // one after the other are neighbours in memory too.
-    let (mut order, rounds) = brio_hilbert_order(&points);
-    // In place (no second copy of the points): points[k] = old points[order[k]], then
-    // order becomes its inverse, the new id of each old vertex.
-    let mut done = vec![0u64; points.len().div_ceil(64)];
-    permute_in_place(&mut points, &order, &mut done);
-    done.fill(0);
-    invert_in_place(&mut order, &mut done);
-    drop(done);
-    for v in &mut vertex_of_input {
-        *v = order[*v as usize];
-    }
+    let input = points;
+    let mut points: Vec<DVec3> = order.par_iter().map(|&i| input[i as usize]).collect();
+    drop(input);
     drop(order);
-    // Freed only now, after the other sort temporaries: with glibc, freeing a large block
-    // raises the size below which later blocks come from the heap, and freed heap blocks
-    // stay resident. Kept until here, the permutation above was mapped and is returned.
-    drop(scratch);
     let shift = exact_shift(&points);
     for p in &mut points {
         *p -= shift;
@@ -122,89 +122,6 @@ fn build_in_zones(
         vertex_of_input,
         duplicates_merged,
     })
-}
-
-/// `items[k] = old items[order[k]]` for a permutation `order`, following its cycles
-/// (`done`: one zeroed bit per item).
-fn permute_in_place<T: Copy>(items: &mut [T], order: &[u32], done: &mut [u64]) {
-    for start in 0..items.len() {
-        if bit(done, start as u32) {
-            continue;
-        }
-        let first = items[start];
-        let mut k = start;
-        loop {
-            set_bit(done, k as u32, true);
-            let src = order[k] as usize;
-            if src == start {
-                items[k] = first;
-                break;
-            }
-            items[k] = items[src];
-            k = src;
-        }
-    }
-}
-
-/// Replaces the permutation `order` by its inverse, following its cycles (`done`: one
-/// zeroed bit per item).
-fn invert_in_place(order: &mut [u32], done: &mut [u64]) {
-    for start in 0..order.len() as u32 {
-        if bit(done, start) {
-            continue;
-        }
-        let mut prev = start;
-        let mut cur = order[start as usize];
-        loop {
-            let next = order[cur as usize];
-            order[cur as usize] = prev;
-            set_bit(done, cur, true);
-            if cur == start {
-                break;
-            }
-            prev = cur;
-            cur = next;
-        }
-    }
-}
-
-/// Merges points with exactly equal coordinates in place (first occurrence kept, input
-/// order preserved) and returns the vertex of each input point, and a spent scratch buffer
-/// for the caller to drop when its other temporaries are gone.
-fn merge_duplicates(points: &mut Vec<DVec3>) -> (Vec<u32>, Vec<u32>) {
-    use rayon::prelude::*;
-    let n = points.len();
-    let mut sorted: Vec<u32> = (0..n as u32).collect();
-    {
-        let p: &[DVec3] = points;
-        sorted.par_sort_unstable_by(|&i, &j| {
-            predicates::lex_cmp(p[i as usize], p[j as usize]).then(i.cmp(&j))
-        });
-    }
-    // First: the representative (smallest input index) of each point.
-    let mut vertex_of_input = vec![0u32; n];
-    let mut run_start = 0;
-    for k in 0..n {
-        let i = sorted[k] as usize;
-        if k > 0 && points[i] != points[sorted[k - 1] as usize] {
-            run_start = k;
-        }
-        vertex_of_input[i] = sorted[run_start];
-    }
-    // Then: representatives numbered in input order, duplicates pointed at them.
-    let mut next = 0u32;
-    for i in 0..n {
-        let rep = vertex_of_input[i] as usize;
-        if rep == i {
-            vertex_of_input[i] = next;
-            points[next as usize] = points[i];
-            next += 1;
-        } else {
-            vertex_of_input[i] = vertex_of_input[rep];
-        }
-    }
-    points.truncate(next as usize);
-    (vertex_of_input, sorted)
 }
 
 /// A per-axis translation under which every coordinate difference `x - shift` is exact
@@ -372,6 +289,13 @@ struct Worker {
     pending: Vec<([u32; 4], u32, u32)>,
     new_tets: Vec<u32>,
     edge_table: Vec<(u64, u32)>,
+    /// [`Worker::link_by_edge_matrix`]'s scratch: vertex ids and their local ids
+    /// (open addressing), the local ids of each new tetrahedron's boundary face, and the
+    /// directed-edge matrix.
+    vertex_keys: [u32; VERTEX_SLOTS],
+    vertex_ids: [u8; VERTEX_SLOTS],
+    star_locals: Vec<[u8; 3]>,
+    edge_matrix: Box<[u32; STAR_VERTICES * STAR_VERTICES]>,
     /// Slots freed by this worker (dead cells), used before `fresh`.
     free: Vec<u32>,
     /// Never used slots handed to this worker by the driver (dead cells).
@@ -383,21 +307,6 @@ struct Worker {
     deferred: Vec<u32>,
     /// Vertices of the current chunk to insert, in insertion order.
     todo: Vec<u32>,
-}
-
-#[inline]
-fn bit(bits: &[u64], t: u32) -> bool {
-    bits[(t >> 6) as usize] & (1u64 << (t & 63)) != 0
-}
-
-#[inline]
-fn set_bit(bits: &mut [u64], t: u32, on: bool) {
-    let w = &mut bits[(t >> 6) as usize];
-    if on {
-        *w |= 1u64 << (t & 63);
-    } else {
-        *w &= !(1u64 << (t & 63));
-    }
 }
 
 impl Geometry<'_> {
@@ -504,6 +413,10 @@ impl Worker {
             pending: Vec::new(),
             new_tets: Vec::new(),
             edge_table: Vec::new(),
+            vertex_keys: [NO_VERTEX; VERTEX_SLOTS],
+            vertex_ids: [0; VERTEX_SLOTS],
+            star_locals: Vec::new(),
+            edge_matrix: Box::new([NO_NEIGHBOUR; STAR_VERTICES * STAR_VERTICES]),
             free: Vec::new(),
             fresh: 0..0,
             last: 0,
@@ -681,6 +594,98 @@ impl Worker {
     /// Links the new tetrahedra to each other: two of them share a face through the new
     /// vertex exactly when they share the cavity-boundary edge opposite it.
     fn link_new_tets(&mut self, cells: &[Cell]) {
+        if !self.link_by_edge_matrix(cells) {
+            self.link_by_edge_table(cells);
+            return;
+        }
+        // Debug builds (the test suite) link every star both ways and compare.
+        if cfg!(debug_assertions) {
+            let by_matrix: Vec<[u32; 4]> = self
+                .new_tets
+                .iter()
+                .map(|&s| cells[s as usize].links())
+                .collect();
+            self.link_by_edge_table(cells);
+            let by_table: Vec<[u32; 4]> = self
+                .new_tets
+                .iter()
+                .map(|&s| cells[s as usize].links())
+                .collect();
+            assert_eq!(
+                by_matrix, by_table,
+                "the edge matrix and table link a star alike"
+            );
+        }
+    }
+
+    /// [`Worker::link_new_tets`] for stars of at most [`STAR_VERTICES`] boundary vertices
+    /// (nearly all): each boundary vertex gets a small local id, and each new tetrahedron
+    /// writes its three boundary edges, directed as its boundary face runs, into a
+    /// [`STAR_VERTICES`]-square matrix; its neighbour across the face through an edge is
+    /// then the entry of the reversed edge (the boundary is a closed, consistently
+    /// oriented surface, so every edge appears once each way). No probing and no clearing
+    /// of the matrix: every entry read was written by this star. False (and nothing
+    /// linked) when the star has more boundary vertices.
+    fn link_by_edge_matrix(&mut self, cells: &[Cell]) -> bool {
+        self.vertex_keys.fill(NO_VERTEX);
+        self.star_locals.clear();
+        let mut count = 0usize;
+        for &(tv, apex, _) in &self.pending {
+            let mut local = [0u8; 3];
+            for (l, &p) in local.iter_mut().zip(&FACE_OUTWARD[apex as usize]) {
+                let x = tv[p];
+                let mut h = (x.wrapping_mul(0x9E37_79B9) >> 26) as usize;
+                loop {
+                    let key = self.vertex_keys[h];
+                    if key == x {
+                        *l = self.vertex_ids[h];
+                        break;
+                    }
+                    if key == NO_VERTEX {
+                        if count == STAR_VERTICES {
+                            return false;
+                        }
+                        self.vertex_keys[h] = x;
+                        self.vertex_ids[h] = count as u8;
+                        *l = count as u8;
+                        count += 1;
+                        break;
+                    }
+                    h = (h + 1) & (VERTEX_SLOTS - 1);
+                }
+            }
+            self.star_locals.push(local);
+        }
+        let m = &mut self.edge_matrix;
+        for (&s, (&(_, apex, _), &[l0, l1, l2])) in self
+            .new_tets
+            .iter()
+            .zip(self.pending.iter().zip(&self.star_locals))
+        {
+            let [p0, p1, p2] = FACE_OUTWARD[apex as usize].map(|p| p as u32);
+            let (l0, l1, l2) = (usize::from(l0), usize::from(l1), usize::from(l2));
+            m[l0 * STAR_VERTICES + l1] = s * 4 + p2;
+            m[l1 * STAR_VERTICES + l2] = s * 4 + p0;
+            m[l2 * STAR_VERTICES + l0] = s * 4 + p1;
+        }
+        for (&s, (&(_, apex, _), &[l0, l1, l2])) in self
+            .new_tets
+            .iter()
+            .zip(self.pending.iter().zip(&self.star_locals))
+        {
+            let [p0, p1, p2] = FACE_OUTWARD[apex as usize];
+            let (l0, l1, l2) = (usize::from(l0), usize::from(l1), usize::from(l2));
+            let n = &cells[s as usize].n;
+            n[p2].store(m[l1 * STAR_VERTICES + l0], Relaxed);
+            n[p0].store(m[l2 * STAR_VERTICES + l1], Relaxed);
+            n[p1].store(m[l0 * STAR_VERTICES + l2], Relaxed);
+        }
+        true
+    }
+
+    /// [`Worker::link_new_tets`] for any star: a small open-addressing table keyed by the
+    /// boundary edge two new tetrahedra share.
+    fn link_by_edge_table(&mut self, cells: &[Cell]) {
         /// For the new vertex at position `f`: the three faces through it (opposite `j`)
         /// and the two positions of the edge each is keyed by.
         const FACES_THROUGH: [[(u32, usize, usize); 3]; 4] = [
@@ -1142,6 +1147,39 @@ mod tests {
     }
 
     #[test]
+    fn a_star_with_more_boundary_vertices_than_the_edge_matrix_is_linked_by_the_table() {
+        // 200 points on a sphere and its centre: when the centre comes, every tetrahedron
+        // is in its cavity, so its star has every sphere point inserted so far on its
+        // boundary, far more than the edge matrix takes.
+        let n = 200;
+        let pts: Vec<DVec3> = (0..n)
+            .map(|i| {
+                let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+                let r = (1.0 - z * z).sqrt();
+                let a = i as f64 * 2.399_963_229_728_653;
+                DVec3::new(r * a.cos(), r * a.sin(), z) * 100.0
+            })
+            .collect();
+        // The insertion order depends on the input index: take the first place for the
+        // centre that puts it after more than twice the matrix's vertices.
+        let (mesh, id) = (0..10)
+            .find_map(|centre| {
+                let mut with_centre = pts.clone();
+                with_centre.insert(centre, DVec3::ZERO);
+                let mesh = build_in_zones(with_centre, 1, &NoProgress).unwrap();
+                let id = mesh.vertex_of_input[centre];
+                (id as usize > 2 * STAR_VERTICES).then_some((mesh, id))
+            })
+            .expect("one of ten places inserts the centre late");
+        mesh.validate().unwrap();
+        let degree = mesh.tets.iter().filter(|t| t.contains(&id)).count();
+        assert!(
+            degree > 2 * STAR_VERTICES,
+            "{degree} tetrahedra around the centre"
+        );
+    }
+
+    #[test]
     fn parallel_zones_give_the_delaunay_mesh_of_one_worker_on_any_number_of_threads() {
         let mut state = 0x9E37_79B9_7F4A_7C15u64;
         let uniform: Vec<DVec3> = (0..60_000)
@@ -1208,34 +1246,6 @@ mod tests {
                     .install(|| build_in_zones(pts.clone(), zones, &NoProgress).unwrap());
                 assert_eq!(single, many, "{name}, {zones} zones on one thread");
             }
-        }
-    }
-
-    #[test]
-    fn in_place_permutation_and_inverse_match_the_copying_versions() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        for n in [1usize, 2, 3, 64, 65, 1000] {
-            // A random permutation (Fisher-Yates with xorshift).
-            let mut order: Vec<u32> = (0..n as u32).collect();
-            for i in (1..n).rev() {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                order.swap(i, (state % (i as u64 + 1)) as usize);
-            }
-            let items: Vec<u64> = (0..n as u64).map(|i| i * 7 + 3).collect();
-            let expected: Vec<u64> = order.iter().map(|&k| items[k as usize]).collect();
-            let mut inverse = vec![0u32; n];
-            for (k, &v) in order.iter().enumerate() {
-                inverse[v as usize] = k as u32;
-            }
-            let mut done = vec![0u64; n.div_ceil(64)];
-            let mut permuted = items.clone();
-            permute_in_place(&mut permuted, &order, &mut done);
-            assert_eq!(permuted, expected);
-            done.fill(0);
-            invert_in_place(&mut order, &mut done);
-            assert_eq!(order, inverse);
         }
     }
 }

@@ -1,30 +1,34 @@
 //! Insertion order: biased randomized insertion order (BRIO) rounds, each sorted along a
-//! 3D Hilbert curve, so consecutive insertions are spatial neighbours.
+//! 3D Hilbert curve, so consecutive insertions are spatial neighbours; equal points are
+//! found on the way and merged.
 //!
-//! Invariant: the order is a permutation of the given vertices and depends only on the
-//! coordinates and the vertex ids (a fixed seed), never on timing or thread count.
+//! Invariant: the order holds each distinct point once and depends only on the
+//! coordinates (and, among equal points, the input index), never on timing or thread
+//! count.
 
 use glam::DVec3;
 use rayon::prelude::*;
+
+use super::predicates::lex_cmp;
 
 /// Bits per axis of the Hilbert key (3 x 21 = 63 bits).
 const HILBERT_BITS: u32 = 21;
 
 /// Position along the 3D Hilbert curve of a point with `HILBERT_BITS`-bit integer
-/// coordinates (Skilling's transpose algorithm, then bit interleaving).
+/// coordinates (Skilling's transpose algorithm, then bit interleaving). Branch-free: the
+/// coordinate bits steer masks, not jumps (they are random, so jumps mispredict).
 fn hilbert_key(mut x: [u32; 3]) -> u64 {
     let m = 1u32 << (HILBERT_BITS - 1);
     let mut q = m;
     while q > 1 {
         let p = q - 1;
         for i in 0..3 {
-            if x[i] & q != 0 {
-                x[0] ^= p;
-            } else {
-                let t = (x[0] ^ x[i]) & p;
-                x[0] ^= t;
-                x[i] ^= t;
-            }
+            // All ones when bit `q` of x[i] is set: then x[0] ^= p; else swap the low
+            // bits of x[0] and x[i] (a no-op for i = 0).
+            let set = 0u32.wrapping_sub(u32::from(x[i] & q != 0));
+            let t = (x[0] ^ x[i]) & p & !set;
+            x[0] ^= (p & set) | t;
+            x[i] ^= t;
         }
         q >>= 1;
     }
@@ -33,21 +37,21 @@ fn hilbert_key(mut x: [u32; 3]) -> u64 {
     let mut t = 0;
     let mut q = m;
     while q > 1 {
-        if x[2] & q != 0 {
-            t ^= q - 1;
-        }
+        t ^= (q - 1) & 0u32.wrapping_sub(u32::from(x[2] & q != 0));
         q >>= 1;
     }
-    for v in &mut x {
-        *v ^= t;
-    }
-    let mut key = 0u64;
-    for b in (0..HILBERT_BITS).rev() {
-        for v in &x {
-            key = (key << 1) | u64::from((v >> b) & 1);
-        }
-    }
-    key
+    (spread_bits(x[0] ^ t) << 2) | (spread_bits(x[1] ^ t) << 1) | spread_bits(x[2] ^ t)
+}
+
+/// The 21 low bits of `v` moved to every third bit (bit `b` to bit `3 b`).
+fn spread_bits(v: u32) -> u64 {
+    let mut x = u64::from(v) & 0x1f_ffff;
+    x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
+    x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
+    x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
+    x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
+    x = (x | (x << 2)) & 0x1249_2492_4924_9249;
+    x
 }
 
 /// SplitMix64: a fixed, well-mixed hash of a vertex id for the round draw.
@@ -58,14 +62,39 @@ fn mix(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-/// The insertion order of all `points`: round 0 (about 64 points) first, each later round
-/// about twice as large, the last holding about half of the points; within a round,
-/// Hilbert order. Sorted in parallel. Also returns where each round starts in the order,
-/// followed by `points.len()`.
-pub fn brio_hilbert_order(points: &[DVec3]) -> (Vec<u32>, Vec<usize>) {
+/// A hash of a point's coordinate bits: equal points (`-0.0` made `0.0` by the caller)
+/// draw the same round.
+fn coordinate_hash(p: DVec3) -> u64 {
+    mix(mix(mix(p.x.to_bits()) ^ p.y.to_bits()) ^ p.z.to_bits())
+}
+
+/// Where each input point goes: see [`insertion_order`].
+#[derive(Debug)]
+pub struct InsertionOrder {
+    /// The distinct points' input indices in insertion order (equal points: the smallest
+    /// index).
+    pub order: Vec<u32>,
+    /// For each input point, the position of its point in `order`.
+    pub vertex_of_input: Vec<u32>,
+    /// Where each round starts in `order`, followed by `order.len()`.
+    pub rounds: Vec<usize>,
+}
+
+/// The insertion order of the distinct `points`, finding equal points on the way: round 0
+/// (about 64 points) first, each later round about twice as large, the last holding about
+/// half of the points; within a round, Hilbert order. A point's round is drawn from a
+/// hash of its coordinates, so equal points share a round and a Hilbert key and meet in
+/// the one parallel sort of the keys; points with equal keys are ordered by coordinates
+/// (then index) to bring equal ones together. No NaN allowed; `-0.0` must already be
+/// `0.0`.
+pub fn insertion_order(points: &[DVec3]) -> InsertionOrder {
     let n = points.len();
     if n == 0 {
-        return (Vec::new(), vec![0]);
+        return InsertionOrder {
+            order: Vec::new(),
+            vertex_of_input: Vec::new(),
+            rounds: vec![0],
+        };
     }
     let (lo, hi) = points
         .par_iter()
@@ -80,8 +109,8 @@ pub fn brio_hilbert_order(points: &[DVec3]) -> (Vec<u32>, Vec<usize>) {
     let extent = (hi - lo).max_element();
     let cells = f64::from((1u32 << HILBERT_BITS) - 1);
     let scale = if extent > 0.0 { cells / extent } else { 0.0 };
-    // Rounds: a vertex with `tz` trailing zero bits in its hash goes to round
-    // `max_level - min(tz, max_level)`; round 0 gets ~ n / 2^max_level ~ 64 vertices.
+    // Rounds: a point with `tz` trailing zero bits in its hash goes to round
+    // `max_level - min(tz, max_level)`; round 0 gets ~ n / 2^max_level ~ 64 points.
     let max_level = (n / 64).max(1).ilog2().min(31);
     let mut keyed: Vec<(u64, u32)> = points
         .par_iter()
@@ -89,20 +118,51 @@ pub fn brio_hilbert_order(points: &[DVec3]) -> (Vec<u32>, Vec<usize>) {
         .map(|(i, &p)| {
             let g = ((p - lo) * scale).clamp(DVec3::ZERO, DVec3::splat(cells));
             let h = hilbert_key([g.x as u32, g.y as u32, g.z as u32]);
-            let tz = mix(i as u64).trailing_zeros().min(max_level);
+            let tz = coordinate_hash(p).trailing_zeros().min(max_level);
             let round = u64::from(max_level - tz);
             ((round << 58) | (h >> 5), i as u32)
         })
         .collect();
     keyed.par_sort_unstable();
-    let mut starts = vec![0];
-    for k in 1..n {
-        if keyed[k].0 >> 58 != keyed[k - 1].0 >> 58 {
-            starts.push(k);
+    // Distinct points can share a key (closer than the key's resolution); equal ones
+    // always do. Order such runs by coordinates so equal points are adjacent.
+    let mut k = 0;
+    while k < n {
+        let mut end = k + 1;
+        while end < n && keyed[end].0 == keyed[k].0 {
+            end += 1;
         }
+        if end - k > 1 {
+            keyed[k..end].sort_unstable_by(|a, b| {
+                lex_cmp(points[a.1 as usize], points[b.1 as usize]).then(a.1.cmp(&b.1))
+            });
+        }
+        k = end;
     }
-    starts.push(n);
-    (keyed.into_iter().map(|(_, i)| i).collect(), starts)
+    let mut order = Vec::with_capacity(n);
+    let mut vertex_of_input = vec![0u32; n];
+    let mut rounds = vec![0];
+    for k in 0..n {
+        let (key, i) = keyed[k];
+        if k > 0 {
+            let (before, j) = keyed[k - 1];
+            if before == key && points[j as usize] == points[i as usize] {
+                vertex_of_input[i as usize] = vertex_of_input[j as usize];
+                continue;
+            }
+            if before >> 58 != key >> 58 {
+                rounds.push(order.len());
+            }
+        }
+        vertex_of_input[i as usize] = order.len() as u32;
+        order.push(i);
+    }
+    rounds.push(order.len());
+    InsertionOrder {
+        order,
+        vertex_of_input,
+        rounds,
+    }
 }
 
 #[cfg(test)]
@@ -126,15 +186,82 @@ mod tests {
         }
     }
 
+    /// Skilling's algorithm with branches and a bit-by-bit interleave, as first written.
+    fn hilbert_key_by_branches(mut x: [u32; 3]) -> u64 {
+        let m = 1u32 << (HILBERT_BITS - 1);
+        let mut q = m;
+        while q > 1 {
+            let p = q - 1;
+            for i in 0..3 {
+                if x[i] & q != 0 {
+                    x[0] ^= p;
+                } else {
+                    let t = (x[0] ^ x[i]) & p;
+                    x[0] ^= t;
+                    x[i] ^= t;
+                }
+            }
+            q >>= 1;
+        }
+        x[1] ^= x[0];
+        x[2] ^= x[1];
+        let mut t = 0;
+        let mut q = m;
+        while q > 1 {
+            if x[2] & q != 0 {
+                t ^= q - 1;
+            }
+            q >>= 1;
+        }
+        for v in &mut x {
+            *v ^= t;
+        }
+        let mut key = 0u64;
+        for b in (0..HILBERT_BITS).rev() {
+            for v in &x {
+                key = (key << 1) | u64::from((v >> b) & 1);
+            }
+        }
+        key
+    }
+
     #[test]
-    fn order_is_a_permutation() {
-        let pts: Vec<DVec3> = (0..1000)
+    fn branch_free_hilbert_keys_equal_the_branching_algorithm() {
+        let mut state = 0x1234_5678_9abc_def1u64;
+        let top = (1u32 << HILBERT_BITS) - 1;
+        let mut cases = vec![[0, 0, 0], [top, top, top], [top, 0, top], [1, 2, 3]];
+        for _ in 0..20_000 {
+            state = mix(state);
+            let c = [0, 21, 42].map(|s| (state >> s) as u32 & top);
+            cases.push(c);
+        }
+        for c in cases {
+            assert_eq!(hilbert_key(c), hilbert_key_by_branches(c), "{c:?}");
+        }
+    }
+
+    #[test]
+    fn order_holds_each_distinct_point_once_and_maps_duplicates_to_it() {
+        let mut pts: Vec<DVec3> = (0..1000)
             .map(|i| DVec3::new((i % 10) as f64, ((i / 10) % 10) as f64, (i / 100) as f64))
             .collect();
-        let (mut order, starts) = brio_hilbert_order(&pts);
-        assert_eq!((starts[0], *starts.last().unwrap()), (0, 1000));
-        assert!(starts.windows(2).all(|w| w[0] < w[1]));
-        order.sort_unstable();
-        assert_eq!(order, (0..1000).collect::<Vec<u32>>());
+        // Every tenth point again, and a point a hair away from another (one key).
+        let again: Vec<DVec3> = (0..1000).step_by(10).map(|i| pts[i]).collect();
+        pts.extend(again);
+        pts.push(DVec3::new(5.0, 5.0, 5.0 + 1e-12));
+        let o = insertion_order(&pts);
+        assert_eq!((o.rounds[0], *o.rounds.last().unwrap()), (0, 1001));
+        assert!(o.rounds.windows(2).all(|w| w[0] < w[1]));
+        let mut seen = o.order.clone();
+        seen.sort_unstable();
+        let mut expected: Vec<u32> = (0..1000).collect();
+        expected.push(1100);
+        assert_eq!(
+            seen, expected,
+            "each distinct point once, by its first index"
+        );
+        for (i, &v) in o.vertex_of_input.iter().enumerate() {
+            assert_eq!(pts[o.order[v as usize] as usize], pts[i], "input {i}");
+        }
     }
 }
