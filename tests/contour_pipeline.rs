@@ -338,6 +338,46 @@ fn every_body_is_kept_by_default_and_a_min_volume_filter_is_counted() {
 }
 
 #[test]
+fn samples_exactly_at_the_threshold_with_nothing_above_them_form_no_body() {
+    // The ellipsoid, and two places far from it where samples assay exactly the cut-off
+    // (0) among lower ones: marked (value >= threshold) but enclosing no volume.
+    let places = [
+        centre() + DVec3::new(-200.0, 0.0, 60.0),
+        centre() + DVec3::new(200.0, 150.0, -60.0),
+    ];
+    let field = move |p: DVec3| {
+        let at_cut_off = places.iter().any(|q| (p - *q).length() < 20.0);
+        Some(if at_cut_off { 0.0 } else { ellipsoid_grade(p) })
+    };
+    let samples = wells(20, 25.0, 2.0, 0.0, -240.0, 9, field);
+    assert!(samples.values.iter().filter(|v| **v == Some(0.0)).count() >= 4);
+    let plain = wells(20, 25.0, 2.0, 0.0, -240.0, 9, |p| Some(ellipsoid_grade(p)));
+    for method in [None, Some(Method::MarchingTetrahedra)] {
+        let out = contour::run(&request(samples.clone(), vec![0.0], method), &NoProgress)
+            .expect("contour");
+        let s = &out.summary.shells[0];
+        assert_eq!(s.bodies.len(), 1, "{method:?}: {:?}", s.bodies);
+        assert!(s.bodies[0].closed && s.bodies[0].volume > 0.0);
+        let warning = out
+            .summary
+            .warnings
+            .iter()
+            .find(|w| w.contains("exactly at the threshold"))
+            .expect("the places are reported");
+        assert!(warning.contains(": 2 places"), "{warning}");
+        // The body is the one without those samples.
+        let alone =
+            contour::run(&request(plain.clone(), vec![0.0], method), &NoProgress).expect("contour");
+        let v = alone.summary.shells[0].volume;
+        assert!(
+            (s.volume - v).abs() <= 1e-9 * v,
+            "{method:?}: {} vs {v}",
+            s.volume
+        );
+    }
+}
+
+#[test]
 fn nested_grade_shells_share_one_tetrahedralization_and_shrink_with_the_threshold() {
     let samples = wells(13, 25.0, 2.0, 0.0, -240.0, 3, |p| Some(ellipsoid_grade(p)));
     let result =
