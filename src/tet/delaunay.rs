@@ -56,6 +56,8 @@ const CHUNK_POINTS: usize = 1 << 16;
 const SECOND_PASS_MIN: usize = 1024;
 /// Slots handed to a worker at a time beyond what it is expected to need.
 const SLOT_BATCH: usize = 1024;
+/// New slots written in parallel from this many on.
+const PARALLEL_SLOTS: usize = 1 << 16;
 /// Tetrahedra searched for a worker's start in its zone.
 const ZONE_START_SEARCH: usize = 256;
 
@@ -810,7 +812,12 @@ impl<'a> Builder<'a> {
         let rest = std::mem::replace(&mut worker.fresh, 0..0);
         worker.free.extend(rest.rev());
         let end = self.top + count;
-        if self.cells.len() < end {
+        let more = end.saturating_sub(self.cells.len());
+        if more >= PARALLEL_SLOTS {
+            // Writing (and first touching) the new slots is page faults mostly: both cores.
+            self.cells
+                .par_extend((0..more).into_par_iter().map(|_| Cell::dead()));
+        } else if more > 0 {
             self.cells.resize_with(end, Cell::dead);
         }
         worker.fresh = self.top as u32..end as u32;
@@ -1040,22 +1047,21 @@ impl<'a> Builder<'a> {
 /// arrays of a [`TetMesh`]. The construction array is released from its end while the
 /// outputs fill from theirs, so memory stays near 32 bytes per tetrahedron.
 fn finish(mut cells: Vec<Cell>) -> (Vec<[u32; 4]>, Vec<[u32; 4]>) {
-    for t in 0..cells.len() {
-        if cells[t].is_dead() {
-            continue;
+    // In parallel: each ghost writes only its own first vertex and the one link of its
+    // finite neighbour across its hull face, which no other ghost writes.
+    cells.par_iter().for_each(|c| {
+        if !c.is_dead() && c.v[3].load(Relaxed) == INF {
+            set_link(&cells, c.n[3].load(Relaxed), NO_NEIGHBOUR);
+            c.v[0].store(DEAD, Relaxed);
         }
-        if cells[t].v[3].load(Relaxed) == INF {
-            let link = cells[t].n[3].load(Relaxed);
-            set_link(&cells, link, NO_NEIGHBOUR);
-            cells[t].v[0].store(DEAD, Relaxed);
-        }
-    }
-    let live = cells.iter().filter(|c| !c.is_dead()).count();
+    });
+    let live = cells.par_iter().filter(|c| !c.is_dead()).count();
+    let holes: Vec<usize> = (0..live)
+        .into_par_iter()
+        .filter(|&d| cells[d].is_dead())
+        .collect();
     let mut top = cells.len();
-    for d in 0..live {
-        if !cells[d].is_dead() {
-            continue;
-        }
+    for d in holes {
         loop {
             top -= 1;
             if !cells[top].is_dead() {
@@ -1080,10 +1086,14 @@ fn finish(mut cells: Vec<Cell>) -> (Vec<[u32; 4]>, Vec<[u32; 4]>) {
     let mut end = live;
     while end > 0 {
         let start = end.saturating_sub(CHUNK);
-        for t in start..end {
-            tets[t] = cells[t].verts();
-            nbrs[t] = cells[t].links();
-        }
+        tets[start..end]
+            .par_iter_mut()
+            .zip(nbrs[start..end].par_iter_mut())
+            .zip(cells[start..end].par_iter())
+            .for_each(|((t, n), c)| {
+                *t = c.verts();
+                *n = c.links();
+            });
         cells.truncate(start);
         cells.shrink_to_fit();
         end = start;
