@@ -56,8 +56,6 @@ const CHUNK_POINTS: usize = 1 << 16;
 const SECOND_PASS_MIN: usize = 1024;
 /// Slots handed to a worker at a time beyond what it is expected to need.
 const SLOT_BATCH: usize = 1024;
-/// New slots written in parallel from this many on.
-const PARALLEL_SLOTS: usize = 1 << 16;
 /// Tetrahedra searched for a worker's start in its zone.
 const ZONE_START_SEARCH: usize = 256;
 
@@ -812,12 +810,7 @@ impl<'a> Builder<'a> {
         let rest = std::mem::replace(&mut worker.fresh, 0..0);
         worker.free.extend(rest.rev());
         let end = self.top + count;
-        let more = end.saturating_sub(self.cells.len());
-        if more >= PARALLEL_SLOTS {
-            // Writing (and first touching) the new slots is page faults mostly: both cores.
-            self.cells
-                .par_extend((0..more).into_par_iter().map(|_| Cell::dead()));
-        } else if more > 0 {
+        if self.cells.len() < end {
             self.cells.resize_with(end, Cell::dead);
         }
         worker.fresh = self.top as u32..end as u32;
