@@ -219,6 +219,11 @@ struct Geometry<'a> {
     /// With a grid (where co-spherical ties are common): the lexicographic rank of each
     /// vertex, so the symbolic perturbation compares integers. Empty otherwise.
     lex_rank: Vec<u32>,
+    /// Error bounds of the `f64` orientation and insphere determinants over the whole
+    /// point set ([`predicates::static_bounds`]; infinite when unusable): beyond them a
+    /// sign is decided without the per-call bound.
+    orient_eps: f64,
+    insphere_eps: f64,
 }
 
 /// The vertices a worker may remove tetrahedra of: those with `lo <= p[axis] < hi` and
@@ -325,6 +330,15 @@ impl Geometry<'_> {
             return Sign::of(f64::from(g.orient(pa, pb, pc, pd)));
         }
         let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
+        if self.orient_eps.is_finite() {
+            let det = predicates::orient_det(pa, pb, pc, pd);
+            if det > self.orient_eps {
+                return Sign::Positive;
+            }
+            if det < -self.orient_eps {
+                return Sign::Negative;
+            }
+        }
         if let Some(s) = predicates::orient_filter(pa, pb, pc, pd) {
             return s;
         }
@@ -338,6 +352,15 @@ impl Geometry<'_> {
     #[inline]
     fn insphere(&self, [a, b, c, d]: [u32; 4], e: u32) -> Sign {
         let (pa, pb, pc, pd, pe) = (self.p(a), self.p(b), self.p(c), self.p(d), self.p(e));
+        if self.insphere_eps.is_finite() {
+            let det = predicates::insphere_det(pa, pb, pc, pd, pe);
+            if det > self.insphere_eps {
+                return Sign::Positive;
+            }
+            if det < -self.insphere_eps {
+                return Sign::Negative;
+            }
+        }
         if let Some(s) = predicates::insphere_filter(pa, pb, pc, pd, pe) {
             return s;
         }
@@ -749,6 +772,17 @@ impl<'a> Builder<'a> {
         } else {
             Vec::new()
         };
+        let (lo, hi) = pts.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        );
+        // Points on a grid (lattices, well data at UTM) are full of near-ties that fail the
+        // static bound too, and would pay for two determinants: per-call bounds only.
+        let (orient_eps, insphere_eps) = match grid {
+            None => predicates::static_bounds(hi - lo),
+            Some(_) => None,
+        }
+        .unwrap_or((f64::INFINITY, f64::INFINITY));
         // Uniform points give ~6.7 tetrahedra per point; the capacity is only reserved
         // (pages are touched as the slots are handed out).
         let estimate = pts.len().saturating_mul(7) + 64;
@@ -757,6 +791,8 @@ impl<'a> Builder<'a> {
                 pts,
                 grid,
                 lex_rank,
+                orient_eps,
+                insphere_eps,
             },
             cells: Vec::with_capacity(estimate),
             top: 0,

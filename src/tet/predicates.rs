@@ -74,10 +74,10 @@ pub fn orient(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Sign {
 /// proves it, else `None`.
 #[inline]
 pub fn orient_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<Sign> {
+    let det = orient_det(a, b, c, d);
     let (bx, by, bz) = (b.x - a.x, b.y - a.y, b.z - a.z);
     let (cx, cy, cz) = (c.x - a.x, c.y - a.y, c.z - a.z);
     let (dx, dy, dz) = (d.x - a.x, d.y - a.y, d.z - a.z);
-    let det = bx * (cy * dz - cz * dy) - by * (cx * dz - cz * dx) + bz * (cx * dy - cy * dx);
     // Static filter: |error| <= 1e-14 * max|dx| * max|dy| * max|dz| (Shewchuk's o3derrboundA
     // on the permanent <= 6 mx my mz gives 4.7e-15; doubled for margin).
     let mx = bx.abs().max(cx.abs()).max(dx.abs());
@@ -95,6 +95,28 @@ pub fn orient_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<Sign> {
         }
     }
     None
+}
+
+/// The `f64` determinant [`orient_filter`] decides on, without its error bound.
+#[inline]
+pub fn orient_det(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
+    let (bx, by, bz) = (b.x - a.x, b.y - a.y, b.z - a.z);
+    let (cx, cy, cz) = (c.x - a.x, c.y - a.y, c.z - a.z);
+    let (dx, dy, dz) = (d.x - a.x, d.y - a.y, d.z - a.z);
+    bx * (cy * dz - cz * dy) - by * (cx * dz - cz * dx) + bz * (cx * dy - cy * dx)
+}
+
+/// Error bounds of [`orient_det`] and [`insphere_det`] valid for any points whose
+/// coordinate differences are at most `extent` per axis (the bounds of [`orient_filter`]
+/// and [`insphere_filter`] with every per-call maximum replaced by the extent, which can
+/// only raise them): `None` outside the magnitudes where those filters are usable. A
+/// determinant beyond its bound has its sign; within it, ask the per-call filter.
+pub fn static_bounds(extent: DVec3) -> Option<(f64, f64)> {
+    let (lo, hi) = (extent.min_element(), extent.max_element());
+    filter_usable(lo, hi).then(|| {
+        let volume = extent.x * extent.y * extent.z;
+        (1e-14 * volume, 5e-13 * volume * hi * hi)
+    })
 }
 
 /// [`orient`] without the filter: fixed-width integers when the coordinates share a
@@ -125,6 +147,34 @@ pub fn insphere(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Sign {
 /// bound proves it, else `None`.
 #[inline]
 pub fn insphere_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Option<Sign> {
+    let det = insphere_det(a, b, c, d, e);
+    let (adx, ady, adz) = (a.x - e.x, a.y - e.y, a.z - e.z);
+    let (bdx, bdy, bdz) = (b.x - e.x, b.y - e.y, b.z - e.z);
+    let (cdx, cdy, cdz) = (c.x - e.x, c.y - e.y, c.z - e.z);
+    let (ddx, ddy, ddz) = (d.x - e.x, d.y - e.y, d.z - e.z);
+    // Static filter: the permanent is <= 72 mx my mz m^2 (m the largest of mx, my, mz);
+    // Shewchuk's isperrboundA (3.6e-15) times that is 2.6e-13; use 5e-13 for margin.
+    let mx = adx.abs().max(bdx.abs()).max(cdx.abs()).max(ddx.abs());
+    let my = ady.abs().max(bdy.abs()).max(cdy.abs()).max(ddy.abs());
+    let mz = adz.abs().max(bdz.abs()).max(cdz.abs()).max(ddz.abs());
+    let lo = mx.min(my).min(mz);
+    let hi = mx.max(my).max(mz);
+    if filter_usable(lo, hi) {
+        let eps = 5e-13 * mx * my * mz * hi * hi;
+        if det > eps {
+            return Some(Sign::Positive);
+        }
+        if det < -eps {
+            return Some(Sign::Negative);
+        }
+    }
+    None
+}
+
+/// The `f64` determinant [`insphere_filter`] decides on (positive inside), without its
+/// error bound.
+#[inline]
+pub fn insphere_det(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> f64 {
     let (adx, ady, adz) = (a.x - e.x, a.y - e.y, a.z - e.z);
     let (bdx, bdy, bdz) = (b.x - e.x, b.y - e.y, b.z - e.z);
     let (cdx, cdy, cdz) = (c.x - e.x, c.y - e.y, c.z - e.z);
@@ -145,24 +195,7 @@ pub fn insphere_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Opti
     let dlift = ddx * ddx + ddy * ddy + ddz * ddz;
     // Shewchuk's determinant: positive inside for tetrahedra robust calls positive, i.e.
     // negative orientation in our convention; negate.
-    let det = -((dlift * abc - clift * dab) + (blift * cda - alift * bcd));
-    // Static filter: the permanent is <= 72 mx my mz m^2 (m the largest of mx, my, mz);
-    // Shewchuk's isperrboundA (3.6e-15) times that is 2.6e-13; use 5e-13 for margin.
-    let mx = adx.abs().max(bdx.abs()).max(cdx.abs()).max(ddx.abs());
-    let my = ady.abs().max(bdy.abs()).max(cdy.abs()).max(ddy.abs());
-    let mz = adz.abs().max(bdz.abs()).max(cdz.abs()).max(ddz.abs());
-    let lo = mx.min(my).min(mz);
-    let hi = mx.max(my).max(mz);
-    if filter_usable(lo, hi) {
-        let eps = 5e-13 * mx * my * mz * hi * hi;
-        if det > eps {
-            return Some(Sign::Positive);
-        }
-        if det < -eps {
-            return Some(Sign::Negative);
-        }
-    }
-    None
+    -((dlift * abc - clift * dab) + (blift * cda - alift * bcd))
 }
 
 /// [`insphere`] without the filter: fixed-width integers when the coordinates share a
@@ -337,6 +370,47 @@ mod tests {
             insphere(t[0], t[1], t[2], t[3], q),
             insphere_exact(t[0], t[1], t[2], t[3], q)
         );
+    }
+
+    #[test]
+    fn determinants_beyond_the_static_bounds_have_the_exact_sign() {
+        // Points in a flat box (wells-like extents), many of them near-degenerate: small
+        // perturbations of a lattice, so determinants span from ties to large values.
+        let extent = DVec3::new(400.0, 300.0, 20.0);
+        let (orient_eps, insphere_eps) = static_bounds(extent).unwrap();
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = |scale: f64| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let lattice = (state % 5) as f64 / 4.0;
+            let jitter = ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 1e-9;
+            (lattice + jitter) * scale
+        };
+        let (mut decided, mut checked) = (0, 0);
+        for _ in 0..20_000 {
+            let mut p = [DVec3::ZERO; 5];
+            for q in &mut p {
+                *q = DVec3::new(next(extent.x), next(extent.y), next(extent.z));
+            }
+            let [a, b, c, d, e] = p;
+            let det = orient_det(a, b, c, d);
+            if det.abs() > orient_eps {
+                assert_eq!(Sign::of(det), orient_exact(a, b, c, d), "{p:?}");
+                decided += 1;
+            }
+            let det = insphere_det(a, b, c, d, e);
+            if det.abs() > insphere_eps {
+                assert_eq!(Sign::of(det), insphere_exact(a, b, c, d, e), "{p:?}");
+                decided += 1;
+            }
+            checked += 2;
+        }
+        assert!(
+            decided > checked / 4,
+            "{decided} of {checked} decided statically"
+        );
+        assert!(static_bounds(DVec3::new(1.0, 1.0, 0.0)).is_none());
     }
 
     #[test]
