@@ -270,21 +270,19 @@ fn shell(
     relax: usize,
     progress: &dyn Progress,
 ) -> Result<(Shell, Filtered), ContourError> {
-    let (values, point_touches) = match lower_point_touches(&data.mesh, &data.values, threshold) {
-        Some((lowered, count)) => (std::borrow::Cow::Owned(lowered), count),
-        None => (std::borrow::Cow::Borrowed(data.values.as_slice()), 0),
-    };
     let mut shell = match method {
         Method::Dmt(placement) => dmt::extract_shell_relaxed(
             &data.mesh,
-            &values,
+            &data.values,
             threshold,
             placement,
             Triangulation::default(),
             relax,
             progress,
         )?,
-        Method::MarchingTetrahedra => dmt::mt::shell(&data.mesh, &values, threshold, progress)?,
+        Method::MarchingTetrahedra => {
+            dmt::mt::shell(&data.mesh, &data.values, threshold, progress)?
+        }
     };
     // Output positions are what the GLB stores: f32 relative to the origin. Measures are
     // taken from exactly those, so any reader of the GLB finds the summary's figures.
@@ -303,10 +301,7 @@ fn shell(
             .iter()
             .map(|b| (b.positions.as_slice(), b.triangles.as_slice())),
     );
-    let mut filtered = Filtered {
-        point_touches,
-        ..Filtered::default()
-    };
+    let mut filtered = Filtered::default();
     if let Some(min_volume) = min_volume {
         shell.bodies.retain(|b| {
             let keep = b.volume >= min_volume;
@@ -320,60 +315,11 @@ fn shell(
     Ok((shell, filtered))
 }
 
-/// What a `min_volume` filter left out of one shell, and the marked regions that only
-/// touch the threshold.
+/// What a `min_volume` filter left out of one shell.
 #[derive(Debug, Clone, Copy, Default)]
 struct Filtered {
     bodies: usize,
     volume: f64,
-    point_touches: usize,
-}
-
-/// Marked material (`value >= threshold`) whose every sample sits exactly at the
-/// threshold encloses no volume: every crossing on its edges is at a sample itself, so
-/// both marching tetrahedra and DMT would give a "body" collapsed onto its samples (e.g.
-/// one assay of exactly the cut-off grade among lower ones). Such samples are lowered
-/// just below the threshold, so they form no body; no crossing of any other body uses
-/// them (their neighbours are below the threshold or lowered too). Returns the values and
-/// how many such regions there were, or `None` when there are none.
-fn lower_point_touches(
-    mesh: &TetMesh,
-    values: &[f64],
-    threshold: f64,
-) -> Option<(Vec<f64>, usize)> {
-    if !values.contains(&threshold) {
-        return None;
-    }
-    let marked: Vec<bool> = values.iter().map(|&v| v >= threshold).collect();
-    let regions = dmt::mt::marked_regions(mesh, &marked);
-    let count = regions
-        .iter()
-        .filter(|&&r| r != dmt::mt::NO_REGION)
-        .map(|&r| r as usize + 1)
-        .max()
-        .unwrap_or(0);
-    let mut above = vec![false; count];
-    for (&r, &v) in regions.iter().zip(values) {
-        if r != dmt::mt::NO_REGION && v > threshold {
-            above[r as usize] = true;
-        }
-    }
-    let touches = above.iter().filter(|&&a| !a).count();
-    if touches == 0 {
-        return None;
-    }
-    let lowered = regions
-        .iter()
-        .zip(values)
-        .map(|(&r, &v)| {
-            if r != dmt::mt::NO_REGION && !above[r as usize] {
-                threshold.next_down()
-            } else {
-                v
-            }
-        })
-        .collect();
-    Some((lowered, touches))
 }
 
 fn body_summary(body: &crate::dmt::Body, origin: DVec3) -> BodySummary {
@@ -500,14 +446,12 @@ pub fn run(
         .map(|(s, &f)| shell_summary(s, f, origin))
         .collect();
     // Material that only touches the threshold at samples is not a body; say where.
-    for (s, f) in shell_summaries.iter().zip(&filtered) {
-        if f.point_touches > 0 {
-            warnings.push(format!(
-                "threshold {}: {} places where samples are exactly at the threshold and none \
-                 around them above it enclose no volume and are not bodies",
-                s.threshold, f.point_touches
-            ));
-        }
+    for s in shells.iter().filter(|s| s.point_touches > 0) {
+        warnings.push(format!(
+            "threshold {}: {} places where samples are exactly at the threshold and none \
+             around them above it enclose no volume and are not bodies",
+            s.threshold, s.point_touches
+        ));
     }
     // Folded DMT surfaces are reported, never dropped silently: the bodies rebuilt by
     // marching tetrahedra and any body still of negative volume.

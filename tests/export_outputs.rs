@@ -215,6 +215,7 @@ fn result(shells: Vec<(f64, Vec<Body>)>, crs: Option<&str>) -> ContourResult {
                 bodies,
                 counts: ShellCounts::default(),
                 quality: Quality::default(),
+                point_touches: 0,
             })
             .collect(),
         samples: samples(crs),

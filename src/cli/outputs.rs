@@ -234,6 +234,7 @@ mod tests {
                 bodies: vec![body],
                 counts: ShellCounts::default(),
                 quality: Quality::default(),
+                point_touches: 0,
             }],
             samples: SampleSet {
                 origin,

@@ -106,6 +106,9 @@ pub struct Shell {
     pub bodies: Vec<Body>,
     pub counts: ShellCounts,
     pub quality: Quality,
+    /// Places where samples are exactly at the threshold with none around them above it:
+    /// they enclose no volume and form no body ([`mt::lower_point_touches`]).
+    pub point_touches: usize,
 }
 
 /// A relaxed body whose balance misses its target by more than this share is balanced
@@ -222,6 +225,11 @@ pub fn extract_shell_relaxed(
     progress: &dyn Progress,
 ) -> Result<Shell, DmtError> {
     check_inputs(mesh, values, threshold)?;
+    let lowered = mt::lower_point_touches(mesh, values, threshold);
+    let (values, point_touches) = match &lowered {
+        Some((lowered, count)) => (lowered.as_slice(), *count),
+        None => (values, 0),
+    };
     let stage = format!("contour {threshold}");
     progress.report(&stage, 0.0);
     let marked: Vec<bool> = values.par_iter().map(|&v| v >= threshold).collect();
@@ -496,6 +504,7 @@ pub fn extract_shell_relaxed(
             surface_faces: topo.active_edges,
         },
         quality,
+        point_touches,
     })
 }
 

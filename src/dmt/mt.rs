@@ -472,6 +472,11 @@ pub fn shell(
     progress: &dyn Progress,
 ) -> Result<Shell, DmtError> {
     super::check_inputs(mesh, values, threshold)?;
+    let lowered = lower_point_touches(mesh, values, threshold);
+    let (values, point_touches) = match &lowered {
+        Some((lowered, count)) => (lowered.as_slice(), *count),
+        None => (values, 0),
+    };
     let stage = format!("marching tetrahedra {threshold}");
     progress.report(&stage, 0.0);
     if progress.is_cancelled() {
@@ -490,7 +495,55 @@ pub fn shell(
         bodies: surface.bodies,
         counts: surface.counts,
         quality,
+        point_touches,
     })
+}
+
+/// Marked material (`value >= threshold`) whose every sample sits exactly at the
+/// threshold encloses no volume: every crossing on its edges is at a sample itself, so
+/// marching tetrahedra and DMT alike would give a "body" collapsed onto its samples (e.g.
+/// one assay of exactly the cut-off grade among lower ones). Such samples are lowered
+/// just below the threshold, so they form no body; no crossing of any other body uses
+/// them (their neighbours are below the threshold or lowered too). Returns the values and
+/// how many such regions there were, or `None` when there are none.
+pub fn lower_point_touches(
+    mesh: &TetMesh,
+    values: &[f64],
+    threshold: f64,
+) -> Option<(Vec<f64>, usize)> {
+    if !values.contains(&threshold) {
+        return None;
+    }
+    let marked: Vec<bool> = values.iter().map(|&v| v >= threshold).collect();
+    let regions = marked_regions(mesh, &marked);
+    let count = regions
+        .iter()
+        .filter(|&&r| r != NO_REGION)
+        .map(|&r| r as usize + 1)
+        .max()
+        .unwrap_or(0);
+    let mut above = vec![false; count];
+    for (&r, &v) in regions.iter().zip(values) {
+        if r != NO_REGION && v > threshold {
+            above[r as usize] = true;
+        }
+    }
+    let touches = above.iter().filter(|&&a| !a).count();
+    if touches == 0 {
+        return None;
+    }
+    let lowered = regions
+        .iter()
+        .zip(values)
+        .map(|(&r, &v)| {
+            if r != NO_REGION && !above[r as usize] {
+                threshold.next_down()
+            } else {
+                v
+            }
+        })
+        .collect();
+    Some((lowered, touches))
 }
 
 /// Connected pieces of the marked region: `regions[v]` is the same number for marked

@@ -106,11 +106,11 @@ fn build_in_zones(
     let mut points: Vec<DVec3> = order.par_iter().map(|&i| input[i as usize]).collect();
     drop(input);
     drop(order);
-    let shift = exact_shift(&points);
+    let (shift, extent) = exact_shift(&points);
     for p in &mut points {
         *p -= shift;
     }
-    let built = Builder::run(&points, &rounds, zones, progress);
+    let built = Builder::run(&points, extent, &rounds, zones, progress);
     for p in &mut points {
         *p += shift;
     }
@@ -127,7 +127,9 @@ fn build_in_zones(
 /// A per-axis translation under which every coordinate difference `x - shift` is exact
 /// (Sterbenz: `s/2 <= x <= 2s`), so predicates on shifted points equal those on the input;
 /// zero on axes where no such shift exists (coordinates spanning zero are small anyway).
-fn exact_shift(points: &[DVec3]) -> DVec3 {
+/// Also returns the bounding box's extent per axis (the same before and after the shift,
+/// since the shifted coordinates are exact).
+fn exact_shift(points: &[DVec3]) -> (DVec3, DVec3) {
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
     for &p in points {
@@ -142,7 +144,7 @@ fn exact_shift(points: &[DVec3]) -> DVec3 {
             shift[k] = centre;
         }
     }
-    shift
+    (shift, hi - lo)
 }
 
 /// One tetrahedron during construction: 32 bytes, its vertices and neighbour links side by
@@ -314,6 +316,23 @@ struct Worker {
     todo: Vec<u32>,
 }
 
+/// The sign of `det()` when it lies beyond the static bound `eps` (none computed when
+/// the bound is unusable, i.e. infinite).
+#[inline]
+fn beyond(eps: f64, det: impl FnOnce() -> f64) -> Option<Sign> {
+    if !eps.is_finite() {
+        return None;
+    }
+    let det = det();
+    if det > eps {
+        Some(Sign::Positive)
+    } else if det < -eps {
+        Some(Sign::Negative)
+    } else {
+        None
+    }
+}
+
 impl Geometry<'_> {
     #[inline]
     fn p(&self, v: u32) -> DVec3 {
@@ -330,14 +349,8 @@ impl Geometry<'_> {
             return Sign::of(f64::from(g.orient(pa, pb, pc, pd)));
         }
         let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
-        if self.orient_eps.is_finite() {
-            let det = predicates::orient_det(pa, pb, pc, pd);
-            if det > self.orient_eps {
-                return Sign::Positive;
-            }
-            if det < -self.orient_eps {
-                return Sign::Negative;
-            }
+        if let Some(s) = beyond(self.orient_eps, || predicates::orient_det(pa, pb, pc, pd)) {
+            return s;
         }
         if let Some(s) = predicates::orient_filter(pa, pb, pc, pd) {
             return s;
@@ -352,14 +365,10 @@ impl Geometry<'_> {
     #[inline]
     fn insphere(&self, [a, b, c, d]: [u32; 4], e: u32) -> Sign {
         let (pa, pb, pc, pd, pe) = (self.p(a), self.p(b), self.p(c), self.p(d), self.p(e));
-        if self.insphere_eps.is_finite() {
-            let det = predicates::insphere_det(pa, pb, pc, pd, pe);
-            if det > self.insphere_eps {
-                return Sign::Positive;
-            }
-            if det < -self.insphere_eps {
-                return Sign::Negative;
-            }
+        if let Some(s) = beyond(self.insphere_eps, || {
+            predicates::insphere_det(pa, pb, pc, pd, pe)
+        }) {
+            return s;
         }
         if let Some(s) = predicates::insphere_filter(pa, pb, pc, pd, pe) {
             return s;
@@ -761,6 +770,7 @@ impl<'a> Builder<'a> {
     #[allow(clippy::type_complexity)]
     fn run(
         pts: &'a [DVec3],
+        extent: DVec3,
         rounds: &[usize],
         zones: usize,
         progress: &dyn Progress,
@@ -772,14 +782,10 @@ impl<'a> Builder<'a> {
         } else {
             Vec::new()
         };
-        let (lo, hi) = pts.iter().fold(
-            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |(lo, hi), &p| (lo.min(p), hi.max(p)),
-        );
         // Points on a grid (lattices, well data at UTM) are full of near-ties that fail the
         // static bound too, and would pay for two determinants: per-call bounds only.
         let (orient_eps, insphere_eps) = match grid {
-            None => predicates::static_bounds(hi - lo),
+            None => predicates::static_bounds(extent),
             Some(_) => None,
         }
         .unwrap_or((f64::INFINITY, f64::INFINITY));
