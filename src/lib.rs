@@ -12,7 +12,7 @@
 //! [`contour::run`] is the one function that the CLI, the service workers and the
 //! tests all call. Geometry rooms (`wells`, `tet`, `dmt`, `export`) know nothing of
 //! HTTP, async runtimes or databases.
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
 
 pub mod api;
 pub mod contour;

@@ -169,9 +169,20 @@ impl Cell {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn verts(&self) -> [u32; 4] {
-        [0, 1, 2, 3].map(|i| self.v[i].load(Relaxed) & VERTEX_MASK)
+        self.raw_verts().map(|u| u & VERTEX_MASK)
+    }
+
+    /// The vertex words with their mark bits.
+    #[inline(always)]
+    fn raw_verts(&self) -> [u32; 4] {
+        [
+            self.v[0].load(Relaxed),
+            self.v[1].load(Relaxed),
+            self.v[2].load(Relaxed),
+            self.v[3].load(Relaxed),
+        ]
     }
 
     /// Sets (`on`) or clears the mark bit of `v[i]` (`i` 0: in the cavity, 1: kept).
@@ -181,9 +192,14 @@ impl Cell {
         self.v[i].store(if on { x | MARK } else { x & !MARK }, Relaxed);
     }
 
-    #[inline]
+    #[inline(always)]
     fn links(&self) -> [u32; 4] {
-        [0, 1, 2, 3].map(|i| self.n[i].load(Relaxed))
+        [
+            self.n[0].load(Relaxed),
+            self.n[1].load(Relaxed),
+            self.n[2].load(Relaxed),
+            self.n[3].load(Relaxed),
+        ]
     }
 
     #[inline]
@@ -204,6 +220,24 @@ impl Cell {
     fn is_dead(&self) -> bool {
         self.v[0].load(Relaxed) & VERTEX_MASK == DEAD
     }
+}
+
+/// Asks the processor to bring `cell` into the cache ahead of its use: the cavity search
+/// calls it on the neighbours of each tetrahedron it adds, whose cache misses then overlap
+/// the insphere tests in between.
+#[inline(always)]
+#[allow(unsafe_code)]
+fn prefetch(cell: &Cell) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is only a hint to the cache: it reads no value, changes no memory
+    // and cannot fault, whatever the address; `_MM_HINT_T0` needs only SSE, part of every
+    // x86-64 target.
+    unsafe {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        _mm_prefetch::<_MM_HINT_T0>((cell as *const Cell).cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = cell;
 }
 
 /// Writes `link` into the face slot it names the other side of: `cells[t2].n[j]`.
@@ -552,10 +586,12 @@ impl Worker {
             let cell = &cells[t as usize];
             let (tv, links) = (cell.verts(), cell.links());
             // The four neighbours' vertices read up front: their cache misses overlap.
-            let raws = links.map(|link| {
-                let c2 = &cells[(link >> 2) as usize];
-                [0, 1, 2, 3].map(|i| c2.v[i].load(Relaxed))
-            });
+            let raws = [
+                cells[(links[0] >> 2) as usize].raw_verts(),
+                cells[(links[1] >> 2) as usize].raw_verts(),
+                cells[(links[2] >> 2) as usize].raw_verts(),
+                cells[(links[3] >> 2) as usize].raw_verts(),
+            ];
             for f in 0..4 {
                 let link = links[f];
                 let t2 = link >> 2;
@@ -573,13 +609,17 @@ impl Worker {
                         }
                         c2.mark(0, true);
                         self.cavity.push(t2);
+                        for link in c2.links() {
+                            prefetch(&cells[(link >> 2) as usize]);
+                        }
                         continue;
                     }
                     c2.mark(1, true);
                     self.kept.push(t2);
                 }
-                let mut nv = tv;
-                nv[f] = v;
+                // Built by selects, not by a store into a copy: a 16-byte reload of
+                // four 4-byte stores stalls (no store forwarding).
+                let nv = [0, 1, 2, 3].map(|i| if i == f { v } else { tv[i] });
                 self.pending.push((nv, f as u32, link));
             }
         }
