@@ -39,8 +39,10 @@ const EMPTY: u64 = u64::MAX;
 /// Boundary vertices (the infinite one included) of a star linked through the edge
 /// matrix; larger stars use the edge table.
 const STAR_VERTICES: usize = 32;
-/// Slots of the star's vertex table (a power of two, twice [`STAR_VERTICES`]).
-const VERTEX_SLOTS: usize = 64;
+/// Slots of the star's vertex table: `2^VERTEX_SLOT_BITS`, eight times [`STAR_VERTICES`]
+/// (so a new vertex rarely probes past its first slot).
+const VERTEX_SLOT_BITS: u32 = 8;
+const VERTEX_SLOTS: usize = 1 << VERTEX_SLOT_BITS;
 /// An empty slot of the star's vertex table (no vertex has this id).
 const NO_VERTEX: u32 = u32::MAX;
 /// Zones (and workers) of the parallel insertion. Fixed, not taken from the machine, so
@@ -706,25 +708,27 @@ impl Worker {
             let mut local = [0u8; 3];
             for (l, &p) in local.iter_mut().zip(&FACE_OUTWARD[apex as usize]) {
                 let x = tv[p];
-                let mut h = (x.wrapping_mul(0x9E37_79B9) >> 26) as usize;
+                let mut h = (x.wrapping_mul(0x9E37_79B9) >> (32 - VERTEX_SLOT_BITS)) as usize;
                 loop {
                     let key = self.vertex_keys[h];
-                    if key == x {
-                        *l = self.vertex_ids[h];
-                        break;
-                    }
-                    if key == NO_VERTEX {
-                        if count == STAR_VERTICES {
-                            return false;
-                        }
+                    // Found (`key == x`) or new (`key` empty) in one test, and the id
+                    // chosen by a mask: which of the two it is is as unpredictable as the
+                    // star, so no branch may depend on it. A found slot is rewritten as is.
+                    if (key ^ x).min(!key) == 0 {
+                        let new = u8::from(key == NO_VERTEX).wrapping_neg();
+                        let id = (count as u8 & new) | (self.vertex_ids[h] & !new);
                         self.vertex_keys[h] = x;
-                        self.vertex_ids[h] = count as u8;
-                        *l = count as u8;
-                        count += 1;
+                        self.vertex_ids[h] = id;
+                        count += usize::from(new & 1);
+                        *l = id;
                         break;
                     }
                     h = (h + 1) & (VERTEX_SLOTS - 1);
                 }
+            }
+            // At most STAR_VERTICES + 3 keys ever: the table never fills.
+            if count > STAR_VERTICES {
+                return false;
             }
             self.star_locals.push(local);
         }
