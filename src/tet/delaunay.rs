@@ -22,7 +22,8 @@ use crate::progress::Progress;
 
 /// The vertex at infinity of ghost tetrahedra (never in a finished [`TetMesh`]).
 const INF: u32 = VERTEX_MASK;
-/// `tets[t][0]` of a free slot.
+/// `v[0]` and `v[1]` of a freed slot (a slot never written is all zero: also dead, since
+/// its first two vertices are equal, which those of a tetrahedron never are).
 const DEAD: u32 = VERTEX_MASK - 1;
 /// The bits of `Cell::v` that hold a vertex id; the top bit of `v[0]` marks a
 /// tetrahedron of the current cavity, that of `v[1]` one tested against the current point
@@ -154,10 +155,11 @@ fn exact_shift(points: &[DVec3]) -> (DVec3, DVec3) {
 /// parallel chunk can share the array without `unsafe`: on x86-64 and AArch64 a relaxed
 /// load or store is an ordinary one, and the zones (see [`Zone`]) keep every cell written
 /// by one worker out of every other worker's reach, so no value is ever raced for.
-#[derive(Debug)]
+#[derive(Debug, bytemuck::Zeroable)]
 #[repr(C, align(16))]
 struct Cell {
-    /// Vertex ids; ghosts have [`INF`] last; `[DEAD, ..]` for free slots.
+    /// Vertex ids; ghosts have [`INF`] last; `[DEAD, DEAD, ..]` for freed slots, all zero
+    /// for never written ones.
     v: [AtomicU32; 4],
     /// `t2 * 4 + j` across the face opposite vertex `i`.
     n: [AtomicU32; 4],
@@ -218,9 +220,17 @@ impl Cell {
         }
     }
 
+    /// A free slot: freed ([`Cell::kill`]) or never written (all zero).
     #[inline]
     fn is_dead(&self) -> bool {
-        self.v[0].load(Relaxed) & VERTEX_MASK == DEAD
+        (self.v[0].load(Relaxed) ^ self.v[1].load(Relaxed)) & VERTEX_MASK == 0
+    }
+
+    /// Marks the slot free.
+    #[inline]
+    fn kill(&self) {
+        self.v[0].store(DEAD, Relaxed);
+        self.v[1].store(DEAD, Relaxed);
     }
 }
 
@@ -652,7 +662,7 @@ impl Worker {
         }
         for k in self.pending.len()..self.cavity.len() {
             let t = self.cavity[k];
-            cells[t as usize].v[0].store(DEAD, Relaxed);
+            cells[t as usize].kill();
             self.free.push(t);
         }
         self.link_new_tets(cells);
@@ -833,8 +843,9 @@ impl<'a> Builder<'a> {
             Some(_) => None,
         }
         .unwrap_or((f64::INFINITY, f64::INFINITY));
-        // Uniform points give ~6.7 tetrahedra per point; the capacity is only reserved
-        // (pages are touched as the slots are handed out).
+        // Uniform points give ~6.7 tetrahedra per point. The array is allocated zeroed
+        // (free slots, see `Cell::is_dead`), so its pages are neither written here nor
+        // resident until a worker fills a slot there: no sequential pass over the array.
         let estimate = pts.len().saturating_mul(7) + 64;
         let mut b = Builder {
             g: Geometry {
@@ -844,7 +855,7 @@ impl<'a> Builder<'a> {
                 orient_eps,
                 insphere_eps,
             },
-            cells: Vec::with_capacity(estimate),
+            cells: bytemuck::zeroed_vec(estimate),
             top: 0,
             workers: (0..zones)
                 .map(|k| Worker::new(0x2545_F491_4F6C_DD1D ^ (k as u64 + 1)))
@@ -1131,7 +1142,7 @@ fn finish(mut cells: Vec<Cell>) -> (Vec<[u32; 4]>, Vec<[u32; 4]>) {
     cells.par_iter().for_each(|c| {
         if !c.is_dead() && c.v[3].load(Relaxed) == INF {
             set_link(&cells, c.n[3].load(Relaxed), NO_NEIGHBOUR);
-            c.v[0].store(DEAD, Relaxed);
+            c.kill();
         }
     });
     let live = cells.par_iter().filter(|c| !c.is_dead()).count();
