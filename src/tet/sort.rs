@@ -14,33 +14,57 @@ use super::predicates::lex_cmp;
 /// Bits per axis of the Hilbert key (3 x 21 = 63 bits).
 const HILBERT_BITS: u32 = 21;
 
+/// Points whose Hilbert keys [`hilbert_keys`] computes at once.
+const LANES: usize = 8;
+
 /// Position along the 3D Hilbert curve of a point with `HILBERT_BITS`-bit integer
-/// coordinates (Skilling's transpose algorithm, then bit interleaving). Branch-free: the
-/// coordinate bits steer masks, not jumps (they are random, so jumps mispredict).
-fn hilbert_key(mut x: [u32; 3]) -> u64 {
+/// coordinates (Skilling's transpose algorithm, then bit interleaving).
+#[cfg(test)]
+fn hilbert_key(x: [u32; 3]) -> u64 {
+    hilbert_keys::<1>(x.map(|c| [c]))[0]
+}
+
+/// [`hilbert_key`] of `L` points, given as `[xs, ys, zs]`. Branch-free (the coordinate
+/// bits steer masks, not jumps: they are random, so jumps mispredict) and lane by lane,
+/// so the compiler keeps the lanes side by side in vector registers: the transform is a
+/// chain of ~60 dependent steps per point, which one point at a time leaves the
+/// processor waiting on.
+fn hilbert_keys<const L: usize>(xs: [[u32; L]; 3]) -> [u64; L] {
+    let [mut x0, mut x1, mut x2] = xs;
     let m = 1u32 << (HILBERT_BITS - 1);
     let mut q = m;
     while q > 1 {
         let p = q - 1;
-        for i in 0..3 {
-            // All ones when bit `q` of x[i] is set: then x[0] ^= p; else swap the low
-            // bits of x[0] and x[i] (a no-op for i = 0).
-            let set = 0u32.wrapping_sub(u32::from(x[i] & q != 0));
-            let t = (x[0] ^ x[i]) & p & !set;
-            x[0] ^= (p & set) | t;
-            x[i] ^= t;
+        // Per axis i: all ones when bit `q` of x[i] is set: then x[0] ^= p; else swap
+        // the low bits of x[0] and x[i] (a no-op for i = 0).
+        for l in 0..L {
+            let set = 0u32.wrapping_sub(u32::from(x0[l] & q != 0));
+            x0[l] ^= p & set;
+        }
+        for xi in [&mut x1, &mut x2] {
+            for l in 0..L {
+                let set = 0u32.wrapping_sub(u32::from(xi[l] & q != 0));
+                let t = (x0[l] ^ xi[l]) & p & !set;
+                x0[l] ^= (p & set) | t;
+                xi[l] ^= t;
+            }
         }
         q >>= 1;
     }
-    x[1] ^= x[0];
-    x[2] ^= x[1];
-    let mut t = 0;
-    let mut q = m;
-    while q > 1 {
-        t ^= (q - 1) & 0u32.wrapping_sub(u32::from(x[2] & q != 0));
-        q >>= 1;
+    let mut keys = [0u64; L];
+    for l in 0..L {
+        x1[l] ^= x0[l];
+        x2[l] ^= x1[l];
+        let mut t = 0;
+        let mut q = m;
+        while q > 1 {
+            t ^= (q - 1) & 0u32.wrapping_sub(u32::from(x2[l] & q != 0));
+            q >>= 1;
+        }
+        keys[l] =
+            (spread_bits(x0[l] ^ t) << 2) | (spread_bits(x1[l] ^ t) << 1) | spread_bits(x2[l] ^ t);
     }
-    (spread_bits(x[0] ^ t) << 2) | (spread_bits(x[1] ^ t) << 1) | spread_bits(x[2] ^ t)
+    keys
 }
 
 /// The 21 low bits of `v` moved to every third bit (bit `b` to bit `3 b`).
@@ -112,17 +136,26 @@ pub fn insertion_order(points: &[DVec3]) -> InsertionOrder {
     // Rounds: a point with `tz` trailing zero bits in its hash goes to round
     // `max_level - min(tz, max_level)`; round 0 gets ~ n / 2^max_level ~ 64 points.
     let max_level = (n / 64).max(1).ilog2().min(31);
-    let mut keyed: Vec<(u64, u32)> = points
-        .par_iter()
+    let mut keyed: Vec<(u64, u32)> = vec![(0, 0); n];
+    keyed
+        .par_chunks_mut(LANES)
+        .zip(points.par_chunks(LANES))
         .enumerate()
-        .map(|(i, &p)| {
-            let g = ((p - lo) * scale).clamp(DVec3::ZERO, DVec3::splat(cells));
-            let h = hilbert_key([g.x as u32, g.y as u32, g.z as u32]);
-            let tz = coordinate_hash(p).trailing_zeros().min(max_level);
-            let round = u64::from(max_level - tz);
-            ((round << 58) | (h >> 5), i as u32)
-        })
-        .collect();
+        .for_each(|(c, (out, pts))| {
+            let mut xs = [[0u32; LANES]; 3];
+            for (l, &p) in pts.iter().enumerate() {
+                let g = ((p - lo) * scale).clamp(DVec3::ZERO, DVec3::splat(cells));
+                for (axis, x) in xs.iter_mut().enumerate() {
+                    x[l] = g[axis] as u32;
+                }
+            }
+            let h = hilbert_keys(xs);
+            for (l, (slot, &p)) in out.iter_mut().zip(pts).enumerate() {
+                let tz = coordinate_hash(p).trailing_zeros().min(max_level);
+                let round = u64::from(max_level - tz);
+                *slot = ((round << 58) | (h[l] >> 5), (c * LANES + l) as u32);
+            }
+        });
     keyed.par_sort_unstable();
     // Distinct points can share a key (closer than the key's resolution); equal ones
     // always do. Order such runs by coordinates so equal points are adjacent.
