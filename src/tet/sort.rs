@@ -37,9 +37,9 @@ fn hilbert_keys<const L: usize>(xs: [[u32; L]; 3]) -> [u64; L] {
         let p = q - 1;
         // Per axis i: all ones when bit `q` of x[i] is set: then x[0] ^= p; else swap
         // the low bits of x[0] and x[i] (a no-op for i = 0).
-        for l in 0..L {
-            let set = 0u32.wrapping_sub(u32::from(x0[l] & q != 0));
-            x0[l] ^= p & set;
+        for x in &mut x0 {
+            let set = 0u32.wrapping_sub(u32::from(*x & q != 0));
+            *x ^= p & set;
         }
         for xi in [&mut x1, &mut x2] {
             for l in 0..L {
