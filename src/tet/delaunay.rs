@@ -54,7 +54,7 @@ const PARALLEL_MIN_POINTS: usize = 50_000;
 /// BRIO rounds below this size are inserted sequentially.
 const PARALLEL_MIN_ROUND: usize = 8192;
 /// Largest piece of a round inserted in parallel at once (between sequential passes).
-const CHUNK_POINTS: usize = 1 << 18;
+const CHUNK_POINTS: usize = 1 << 17;
 /// Fewest vertices given up by a parallel pass worth a second one.
 const SECOND_PASS_MIN: usize = 1024;
 /// Slots handed to a worker at a time beyond what it is expected to need.
