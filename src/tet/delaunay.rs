@@ -1223,6 +1223,22 @@ mod tests {
     use super::*;
     use crate::progress::NoProgress;
 
+    #[test]
+    fn never_written_and_freed_slots_read_as_free_and_tetrahedra_do_not() {
+        let cells: Vec<Cell> = bytemuck::zeroed_vec(3);
+        assert!(cells.iter().all(Cell::is_dead), "zeroed slots are free");
+        cells[1].set_verts([0, 1, 2, 3]);
+        cells[2].set_verts([7, 5, 9, INF]);
+        assert!(!cells[1].is_dead() && !cells[2].is_dead());
+        // The search's marks do not make a tetrahedron look free.
+        cells[1].mark(0, true);
+        cells[1].mark(1, true);
+        assert!(!cells[1].is_dead());
+        cells[2].kill();
+        assert!(cells[2].is_dead());
+        assert!(Cell::dead().is_dead());
+    }
+
     fn xorshift(state: &mut u64) -> f64 {
         *state ^= *state << 13;
         *state ^= *state >> 7;

@@ -274,6 +274,26 @@ mod tests {
     }
 
     #[test]
+    fn keys_computed_in_lanes_equal_those_of_one_point_at_a_time() {
+        let mut state = 0x0fed_cba9_8765_4321u64;
+        let top = (1u32 << HILBERT_BITS) - 1;
+        for _ in 0..2_000 {
+            let mut xs = [[0u32; LANES]; 3];
+            for l in 0..LANES {
+                state = mix(state);
+                for (axis, x) in xs.iter_mut().enumerate() {
+                    x[l] = (state >> (21 * axis)) as u32 & top;
+                }
+            }
+            let keys = hilbert_keys(xs);
+            for (l, &key) in keys.iter().enumerate() {
+                let c = [xs[0][l], xs[1][l], xs[2][l]];
+                assert_eq!(key, hilbert_key_by_branches(c), "{c:?}");
+            }
+        }
+    }
+
+    #[test]
     fn order_holds_each_distinct_point_once_and_maps_duplicates_to_it() {
         let mut pts: Vec<DVec3> = (0..1000)
             .map(|i| DVec3::new((i % 10) as f64, ((i / 10) % 10) as f64, (i / 100) as f64))
