@@ -516,12 +516,7 @@ pub fn lower_point_touches(
     }
     let marked: Vec<bool> = values.iter().map(|&v| v >= threshold).collect();
     let regions = marked_regions(mesh, &marked);
-    let count = regions
-        .iter()
-        .filter(|&&r| r != NO_REGION)
-        .map(|&r| r as usize + 1)
-        .max()
-        .unwrap_or(0);
+    let count = region_count(&regions);
     let mut above = vec![false; count];
     for (&r, &v) in regions.iter().zip(values) {
         if r != NO_REGION && v > threshold {
@@ -544,6 +539,16 @@ pub fn lower_point_touches(
         })
         .collect();
     Some((lowered, touches))
+}
+
+/// The number of regions of `regions` ([`marked_regions`]): the largest id + 1.
+pub fn region_count(regions: &[u32]) -> usize {
+    regions
+        .iter()
+        .filter(|&&r| r != NO_REGION)
+        .map(|&r| r as usize + 1)
+        .max()
+        .unwrap_or(0)
 }
 
 /// Connected pieces of the marked region: `regions[v]` is the same number for marked
@@ -614,12 +619,7 @@ pub fn marked_regions(mesh: &TetMesh, marked: &[bool]) -> Vec<u32> {
 /// crossings (one marked corner), the tetrahedron minus such a corner (three), or a wedge
 /// (two), measured as cones from a marked corner over the faces away from it.
 pub fn region_volumes(mesh: &TetMesh, values: &[f64], threshold: f64, regions: &[u32]) -> Vec<f64> {
-    let len = regions
-        .iter()
-        .filter(|&&r| r != NO_REGION)
-        .map(|&r| r as usize + 1)
-        .max()
-        .unwrap_or(0);
+    let len = region_count(regions);
     let cone = |apex: DVec3, a: DVec3, b: DVec3, c: DVec3| {
         ((a - apex).dot((b - apex).cross(c - apex)) / 6.0).abs()
     };

@@ -181,12 +181,7 @@ impl Cell {
     /// The vertex words with their mark bits.
     #[inline(always)]
     fn raw_verts(&self) -> [u32; 4] {
-        [
-            self.v[0].load(Relaxed),
-            self.v[1].load(Relaxed),
-            self.v[2].load(Relaxed),
-            self.v[3].load(Relaxed),
-        ]
+        load4(&self.v)
     }
 
     /// Sets (`on`) or clears the mark bit of `v[i]` (`i` 0: in the cavity, 1: kept).
@@ -198,12 +193,7 @@ impl Cell {
 
     #[inline(always)]
     fn links(&self) -> [u32; 4] {
-        [
-            self.n[0].load(Relaxed),
-            self.n[1].load(Relaxed),
-            self.n[2].load(Relaxed),
-            self.n[3].load(Relaxed),
-        ]
+        load4(&self.n)
     }
 
     #[inline]
@@ -232,6 +222,18 @@ impl Cell {
         self.v[0].store(DEAD, Relaxed);
         self.v[1].store(DEAD, Relaxed);
     }
+}
+
+/// Four relaxed loads, written out: through `array::map` the compiler left the loads of
+/// the cavity search's neighbours behind a call.
+#[inline(always)]
+fn load4(a: &[AtomicU32; 4]) -> [u32; 4] {
+    [
+        a[0].load(Relaxed),
+        a[1].load(Relaxed),
+        a[2].load(Relaxed),
+        a[3].load(Relaxed),
+    ]
 }
 
 /// Asks the processor to bring `cell` into the cache ahead of its use: the cavity search
