@@ -416,10 +416,53 @@ impl Grid {
         let v = [diff(a), diff(b), diff(c), diff(d)];
         if self.insphere_small {
             insphere_small(v)
+        } else if concyclic_by_construction(&v) {
+            0
         } else {
             insphere_wide(v)
         }
     }
+}
+
+/// Are four of the five points concyclic by construction, which makes their insphere
+/// determinant exactly zero? `v` holds the differences `p - e` of the four others: true
+/// when `e` and one of them lie on a line parallel to a coordinate axis, two others on a
+/// second such line, and the two pairs are symmetric about one plane across that axis
+/// (equal coordinate sums along it).
+///
+/// Why zero: the two lines are parallel and distinct, so the four points lie in one plane.
+/// There, the perpendicular bisectors of both pairs are the same line (the plane across
+/// the axis at half the common sum), and on it lies a point as far from one point of each
+/// pair as from the other: the centre of a circle through all four. A circle and a fifth
+/// point lie on one sphere (or one plane), so the determinant vanishes.
+///
+/// Drill holes make this the common tie: vertical wells sampled at common depths give
+/// such trapezoids between every two neighbouring wells, and on well data at UTM
+/// coordinates every tie the float filter leaves was of this kind, which this test answers
+/// with a few comparisons instead of 256-bit products.
+fn concyclic_by_construction(v: &[[i128; 3]; 4]) -> bool {
+    // The vertical axis first: wells.
+    for (k, k1, k2) in [(2, 0, 1), (0, 1, 2), (1, 2, 0)] {
+        for i in 0..4 {
+            // `v[i]` on the line through `e` (the origin) parallel to axis `k`.
+            if v[i][k1] != 0 || v[i][k2] != 0 {
+                continue;
+            }
+            for j in 0..4 {
+                for l in j + 1..4 {
+                    if j == i || l == i {
+                        continue;
+                    }
+                    let same_line = v[j][k1] == v[l][k1] && v[j][k2] == v[l][k2];
+                    let other_line = v[j][k1] != 0 || v[j][k2] != 0;
+                    if same_line && other_line && v[j][k] + v[l][k] == v[i][k] {
+                        return true;
+                    }
+                }
+            }
+        }
+    }
+    false
 }
 
 #[cfg(test)]
@@ -520,6 +563,62 @@ mod tests {
         }
         // Coordinates spanning too many bits have no grid.
         assert!(Grid::new(&[DVec3::new(1e20, 1e-20, 0.0)]).is_none());
+    }
+
+    /// Two pairs of points on parallel lines along each axis, symmetric about one plane
+    /// across it: detected, and a tie by both the 256-bit path and `robust`. One unit off
+    /// the symmetry: not detected, and the 256-bit sign is `robust`'s.
+    #[test]
+    fn symmetric_pairs_on_parallel_axis_lines_are_ties_and_near_misses_are_not() {
+        let mut state = 0x0f1e_2d3c_4b5a_6978u64;
+        let as_point = |v: [i128; 3]| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
+        let with_e = |v: [[i128; 3]; 4]| {
+            [
+                as_point(v[0]),
+                as_point(v[1]),
+                as_point(v[2]),
+                as_point(v[3]),
+                DVec3::ZERO,
+            ]
+        };
+        let mut nonzero_misses = 0;
+        for k in 0..3 {
+            let line = |x: i128, y: i128, along: i128| {
+                let mut p = [0i128; 3];
+                p[k] = along;
+                p[(k + 1) % 3] = x;
+                p[(k + 2) % 3] = y;
+                p
+            };
+            for round in 0..1000 {
+                let mut c = || ((xorshift(&mut state) >> 20) as i64 - (1i64 << 43)) as i128;
+                let (h, h2, x, y) = (c(), c(), c(), c());
+                let other = [c(), c(), c()];
+                // `e` is the origin, `on_e` shares its line; `p`, `q` the parallel line.
+                let on_e = line(0, 0, h);
+                let p = line(x, y, h2);
+                let q = line(x, y, h - h2);
+                let near = line(x, y, h - h2 + 1);
+                // The four in several orders.
+                let tie = match round % 3 {
+                    0 => [on_e, p, q, other],
+                    1 => [p, other, on_e, q],
+                    _ => [other, q, p, on_e],
+                };
+                assert!(concyclic_by_construction(&tie), "axis {k}: {tie:?}");
+                assert_eq!(insphere_wide(tie), 0, "axis {k}: {tie:?}");
+                assert_eq!(robust_insphere(with_e(tie)), 0, "axis {k}: {tie:?}");
+                let miss = [on_e, p, near, other];
+                assert!(!concyclic_by_construction(&miss), "axis {k}: {miss:?}");
+                let sign = insphere_wide(miss);
+                assert_eq!(sign, robust_insphere(with_e(miss)), "axis {k}: {miss:?}");
+                nonzero_misses += usize::from(sign != 0);
+            }
+        }
+        assert!(
+            nonzero_misses > 2900,
+            "near misses are not ties: {nonzero_misses}"
+        );
     }
 
     #[test]
