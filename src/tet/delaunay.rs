@@ -357,6 +357,9 @@ struct Worker {
     fresh: Range<u32>,
     /// A live tetrahedron to start the next walk from.
     last: u32,
+    /// The last insertion's star (`pending`, `new_tets`) was built by this worker since
+    /// the driver last set `last`: the walk may start from it.
+    star_hint: bool,
     rng: u64,
     /// Vertices of the current chunk this worker gave up (for the sequential pass).
     deferred: Vec<u32>,
@@ -500,6 +503,7 @@ impl Worker {
             free: Vec::new(),
             fresh: 0..0,
             last: 0,
+            star_hint: false,
             rng: seed,
             deferred: Vec::new(),
             todo: Vec::new(),
@@ -537,6 +541,9 @@ impl Worker {
     /// the walk meets a tetrahedron outside `zone`.
     fn locate(&mut self, g: &Geometry, cells: &[Cell], q: u32, zone: Zone) -> Option<u32> {
         let mut t = self.last;
+        if self.star_hint {
+            t = self.star_toward(g, cells, q).unwrap_or(t);
+        }
         let mut from = 4;
         'walk: loop {
             let cell = &cells[t as usize];
@@ -573,6 +580,28 @@ impl Worker {
         }
     }
 
+    /// The finite tetrahedron of the last insertion's star whose face opposite the new
+    /// vertex has its centroid nearest `q`, if it is still live as built.
+    fn star_toward(&self, g: &Geometry, cells: &[Cell], q: u32) -> Option<u32> {
+        let (&(first, f, _), _) = self.pending.split_first()?;
+        // The face sum is the tetrahedron's vertex sum less the new vertex.
+        let target = g.p(q) * 3.0 + g.p(first[f as usize]);
+        let (mut best, mut best_k) = (f64::INFINITY, 0);
+        for (k, &(nv, _, _)) in self.pending.iter().enumerate() {
+            if nv[3] == INF {
+                continue;
+            }
+            let sum = g.p(nv[0]) + g.p(nv[1]) + g.p(nv[2]) + g.p(nv[3]);
+            let d = (sum - target).length_squared();
+            // Chosen by selects: which tetrahedron is nearer is unpredictable.
+            let nearer = d < best;
+            best = if nearer { d } else { best };
+            best_k = if nearer { k } else { best_k };
+        }
+        let s = self.new_tets[best_k];
+        (cells[s as usize].verts() == self.pending[best_k].0).then_some(s)
+    }
+
     /// Clears the marks of the cavity search.
     fn unmark(&self, cells: &[Cell]) {
         for &t in &self.cavity {
@@ -587,7 +616,10 @@ impl Worker {
     /// writing the new tetrahedra over the cavity's slots first. Changes nothing when it
     /// misses (a tetrahedron outside `zone`, or too few slots).
     fn insert(&mut self, g: &Geometry, cells: &[Cell], v: u32, zone: Zone) -> Result<(), Missed> {
-        let t0 = self.locate(g, cells, v, zone).ok_or(Missed::Foreign)?;
+        let t0 = self.locate(g, cells, v, zone);
+        // The buffers are rebuilt below; only a complete insertion leaves a star.
+        self.star_hint = false;
+        let t0 = t0.ok_or(Missed::Foreign)?;
         self.cavity.clear();
         self.pending.clear();
         self.kept.clear();
@@ -674,6 +706,7 @@ impl Worker {
             .copied()
             .find(|&s| cells[s as usize].v[3].load(Relaxed) != INF)
             .unwrap_or(self.new_tets[0]);
+        self.star_hint = true;
         Ok(())
     }
 
@@ -970,6 +1003,7 @@ impl<'a> Builder<'a> {
         }
         for w in &mut self.workers {
             w.last = t0;
+            w.star_hint = false;
         }
     }
 
@@ -991,6 +1025,7 @@ impl<'a> Builder<'a> {
     fn revive_start(&mut self) {
         if self.cells[self.workers[0].last as usize].is_dead() {
             self.workers[0].last = self.any_live();
+            self.workers[0].star_hint = false;
         }
     }
 
@@ -1079,6 +1114,7 @@ impl<'a> Builder<'a> {
             };
             if let Some(t) = start {
                 self.workers[z].last = t;
+                self.workers[z].star_hint = false;
             } else {
                 let w = &mut self.workers[z];
                 let todo = std::mem::take(&mut w.todo);
@@ -1114,6 +1150,7 @@ impl<'a> Builder<'a> {
         let t = self.workers[0].locate(&self.g, &self.cells, v, Zone::ALL)?;
         let w = &mut self.workers[z];
         w.last = t;
+        w.star_hint = false;
         let mut queue = vec![t];
         let mut k = 0;
         while k < queue.len() && k < ZONE_START_SEARCH {
