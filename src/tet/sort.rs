@@ -130,9 +130,17 @@ pub fn insertion_order(points: &[DVec3]) -> InsertionOrder {
             || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
             |a, b| (a.0.min(b.0), a.1.max(b.1)),
         );
-    let extent = (hi - lo).max_element();
+    // Each axis scaled to the curve's whole range on its own (the bounding box, not its
+    // cube): well data spans kilometres across and a few hundred metres down, and a cube
+    // would leave the curve's coarse levels blind to depth. Shorter walks: 6-12% less time
+    // on the 1M well lattices (docs/benchmarks.md).
+    let extent = hi - lo;
     let cells = f64::from((1u32 << HILBERT_BITS) - 1);
-    let scale = if extent > 0.0 { cells / extent } else { 0.0 };
+    let scale = DVec3::select(
+        extent.cmpgt(DVec3::ZERO),
+        DVec3::splat(cells) / extent,
+        DVec3::ZERO,
+    );
     // Rounds: a point with `tz` trailing zero bits in its hash goes to round
     // `max_level - min(tz, max_level)`; round 0 gets ~ n / 2^max_level ~ 64 points.
     let max_level = (n / 64).max(1).ilog2().min(31);
