@@ -1176,15 +1176,23 @@ impl<'a> Builder<'a> {
 /// arrays of a [`TetMesh`]. The construction array is released from its end while the
 /// outputs fill from theirs, so memory stays near 32 bytes per tetrahedron.
 fn finish(mut cells: Vec<Cell>) -> (Vec<[u32; 4]>, Vec<[u32; 4]>) {
-    // In parallel: each ghost writes only its own first vertex and the one link of its
-    // finite neighbour across its hull face, which no other ghost writes.
-    cells.par_iter().for_each(|c| {
-        if !c.is_dead() && c.v[3].load(Relaxed) == INF {
-            set_link(&cells, c.n[3].load(Relaxed), NO_NEIGHBOUR);
-            c.kill();
-        }
-    });
-    let live = cells.par_iter().filter(|c| !c.is_dead()).count();
+    // Ghosts removed and the finite tetrahedra counted in one parallel pass: each ghost
+    // writes only its own vertex words and the one link of its finite neighbour across
+    // its hull face, which no other ghost writes and the count does not read.
+    let live = cells
+        .par_iter()
+        .filter(|c| {
+            if c.is_dead() {
+                return false;
+            }
+            if c.v[3].load(Relaxed) == INF {
+                set_link(&cells, c.n[3].load(Relaxed), NO_NEIGHBOUR);
+                c.kill();
+                return false;
+            }
+            true
+        })
+        .count();
     let holes: Vec<usize> = (0..live)
         .into_par_iter()
         .filter(|&d| cells[d].is_dead())
