@@ -510,6 +510,13 @@ impl Worker {
         }
     }
 
+    /// Points the next walk at the live tetrahedron `t` (set by the driver: the last star
+    /// may be stale or another worker's reach).
+    fn place(&mut self, t: u32) {
+        self.last = t;
+        self.star_hint = false;
+    }
+
     /// Slots this worker can fill without the driver.
     fn spare(&self) -> usize {
         self.free.len() + self.fresh.len()
@@ -583,7 +590,7 @@ impl Worker {
     /// The finite tetrahedron of the last insertion's star whose face opposite the new
     /// vertex has its centroid nearest `q`, if it is still live as built.
     fn star_toward(&self, g: &Geometry, cells: &[Cell], q: u32) -> Option<u32> {
-        let (&(first, f, _), _) = self.pending.split_first()?;
+        let &(first, f, _) = self.pending.first()?;
         // The face sum is the tetrahedron's vertex sum less the new vertex.
         let target = g.p(q) * 3.0 + g.p(first[f as usize]);
         let (mut best, mut best_k) = (f64::INFINITY, 0);
@@ -1002,8 +1009,7 @@ impl<'a> Builder<'a> {
             }
         }
         for w in &mut self.workers {
-            w.last = t0;
-            w.star_hint = false;
+            w.place(t0);
         }
     }
 
@@ -1024,8 +1030,8 @@ impl<'a> Builder<'a> {
     /// deleted the one it had).
     fn revive_start(&mut self) {
         if self.cells[self.workers[0].last as usize].is_dead() {
-            self.workers[0].last = self.any_live();
-            self.workers[0].star_hint = false;
+            let t = self.any_live();
+            self.workers[0].place(t);
         }
     }
 
@@ -1113,8 +1119,7 @@ impl<'a> Builder<'a> {
                 None => None,
             };
             if let Some(t) = start {
-                self.workers[z].last = t;
-                self.workers[z].star_hint = false;
+                self.workers[z].place(t);
             } else {
                 let w = &mut self.workers[z];
                 let todo = std::mem::take(&mut w.todo);
@@ -1149,8 +1154,7 @@ impl<'a> Builder<'a> {
         self.revive_start();
         let t = self.workers[0].locate(&self.g, &self.cells, v, Zone::ALL)?;
         let w = &mut self.workers[z];
-        w.last = t;
-        w.star_hint = false;
+        w.place(t);
         let mut queue = vec![t];
         let mut k = 0;
         while k < queue.len() && k < ZONE_START_SEARCH {
