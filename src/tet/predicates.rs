@@ -147,7 +147,22 @@ pub fn insphere(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Sign {
 /// bound proves it, else `None`.
 #[inline]
 pub fn insphere_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Option<Sign> {
-    let det = insphere_det(a, b, c, d, e);
+    let (det, lift) = insphere_det_lift(a, b, c, d, e);
+    // First a bound that costs three `max` and a square root: every |difference| is at
+    // most r = sqrt(lift) (the largest lifted value), so r^5 bounds the product of the
+    // per-axis maxima below, and 5e-13 r^5 bounds the error. It is looser than the per-axis
+    // bound only on flat configurations, which then take the per-axis one; on well
+    // lattices (no static bound) the per-axis maxima cost more than the determinant.
+    if lift > 1e-100 && lift < 1e100 {
+        let eps = 5e-13 * lift * lift * lift.sqrt();
+        if det.abs() > eps {
+            return Some(if det > 0.0 {
+                Sign::Positive
+            } else {
+                Sign::Negative
+            });
+        }
+    }
     let (adx, ady, adz) = (a.x - e.x, a.y - e.y, a.z - e.z);
     let (bdx, bdy, bdz) = (b.x - e.x, b.y - e.y, b.z - e.z);
     let (cdx, cdy, cdz) = (c.x - e.x, c.y - e.y, c.z - e.z);
@@ -175,6 +190,12 @@ pub fn insphere_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Opti
 /// error bound.
 #[inline]
 pub fn insphere_det(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> f64 {
+    insphere_det_lift(a, b, c, d, e).0
+}
+
+/// [`insphere_det`] and the largest of the four lifted values `|a - e|^2, ..`.
+#[inline(always)]
+fn insphere_det_lift(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> (f64, f64) {
     let (adx, ady, adz) = (a.x - e.x, a.y - e.y, a.z - e.z);
     let (bdx, bdy, bdz) = (b.x - e.x, b.y - e.y, b.z - e.z);
     let (cdx, cdy, cdz) = (c.x - e.x, c.y - e.y, c.z - e.z);
@@ -195,7 +216,8 @@ pub fn insphere_det(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> f64 {
     let dlift = ddx * ddx + ddy * ddy + ddz * ddz;
     // Shewchuk's determinant: positive inside for tetrahedra robust calls positive, i.e.
     // negative orientation in our convention; negate.
-    -((dlift * abc - clift * dab) + (blift * cda - alift * bcd))
+    let det = -((dlift * abc - clift * dab) + (blift * cda - alift * bcd));
+    (det, alift.max(blift).max(clift.max(dlift)))
 }
 
 /// [`insphere`] without the filter: fixed-width integers when the coordinates share a
@@ -370,6 +392,45 @@ mod tests {
             insphere(t[0], t[1], t[2], t[3], q),
             insphere_exact(t[0], t[1], t[2], t[3], q)
         );
+    }
+
+    #[test]
+    fn the_insphere_filter_is_exact_wherever_it_decides_on_flat_and_round_near_ties() {
+        // Jittered lattices from round boxes to flat slabs (one axis a millionth of the
+        // others), at the origin and at UTM magnitudes: the filter's first bound (from the
+        // largest lifted value) and its per-axis bound must never contradict the exact
+        // sign, and between them they must decide the clear cases.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let lattice = (state % 4) as f64;
+            let jitter = ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 1e-7;
+            lattice + jitter
+        };
+        let (mut decided, mut checked) = (0, 0);
+        for scale in [
+            DVec3::new(1.0, 1.0, 1.0),
+            DVec3::new(50.0, 50.0, 1.0),
+            DVec3::new(1.0, 1.0, 1e-6),
+            DVec3::new(1e-6, 1.0, 1.0),
+        ] {
+            for origin in [DVec3::ZERO, DVec3::new(500_000.0, 6_500_000.0, 300.0)] {
+                for _ in 0..5_000 {
+                    let p: [DVec3; 5] = std::array::from_fn(|_| {
+                        origin + DVec3::new(next(), next(), next()) * scale
+                    });
+                    let [a, b, c, d, e] = p;
+                    if let Some(s) = insphere_filter(a, b, c, d, e) {
+                        assert_eq!(s, insphere_robust(a, b, c, d, e), "{p:?}");
+                        decided += 1;
+                    }
+                    checked += 1;
+                }
+            }
+        }
+        assert!(decided > checked / 2, "{decided} of {checked} decided");
     }
 
     #[test]
