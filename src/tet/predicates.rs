@@ -163,6 +163,21 @@ pub fn insphere_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Opti
             });
         }
     }
+    insphere_filter_per_axis(a, b, c, d, e, det)
+}
+
+/// The per-axis bound of [`insphere_filter`], out of line: inlined, its maxima were
+/// computed ahead of the cheaper bound's test on every call.
+#[cold]
+#[inline(never)]
+fn insphere_filter_per_axis(
+    a: DVec3,
+    b: DVec3,
+    c: DVec3,
+    d: DVec3,
+    e: DVec3,
+    det: f64,
+) -> Option<Sign> {
     let (adx, ady, adz) = (a.x - e.x, a.y - e.y, a.z - e.z);
     let (bdx, bdy, bdz) = (b.x - e.x, b.y - e.y, b.z - e.z);
     let (cdx, cdy, cdz) = (c.x - e.x, c.y - e.y, c.z - e.z);
