@@ -147,6 +147,16 @@ pub fn insphere(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Sign {
 /// bound proves it, else `None`.
 #[inline]
 pub fn insphere_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Option<Sign> {
+    insphere_filter_lift(a, b, c, d, e)
+        .or_else(|det| insphere_filter_per_axis(a, b, c, d, e, det).ok_or(()))
+        .ok()
+}
+
+/// The first bound of [`insphere_filter`] alone: the sign, or the determinant it could not
+/// decide. For points on an integer grid, whose exact test is cheap and whose undecided
+/// tests are nearly all exact ties, which no bound decides.
+#[inline]
+pub fn insphere_filter_lift(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Result<Sign, f64> {
     let (det, lift) = insphere_det_lift(a, b, c, d, e);
     // First a bound that costs three `max` and a square root: every |difference| is at
     // most r = sqrt(lift) (the largest lifted value), so r^5 bounds the product of the
@@ -156,14 +166,14 @@ pub fn insphere_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Opti
     if lift > 1e-100 && lift < 1e100 {
         let eps = 5e-13 * lift * lift * lift.sqrt();
         if det.abs() > eps {
-            return Some(if det > 0.0 {
+            return Ok(if det > 0.0 {
                 Sign::Positive
             } else {
                 Sign::Negative
             });
         }
     }
-    insphere_filter_per_axis(a, b, c, d, e, det)
+    Err(det)
 }
 
 /// The per-axis bound of [`insphere_filter`], out of line: inlined, its maxima were
