@@ -400,23 +400,24 @@ impl Geometry<'_> {
     /// [`predicates::orient`] of four vertices.
     #[inline]
     fn orient(&self, a: u32, b: u32, c: u32, d: u32) -> Sign {
-        if let Some(g) = &self.grid
-            && g.orient_is_cheap()
-        {
-            let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
+        let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
+        if let Some(g) = &self.grid {
+            // In i64 the exact test costs no more than a filter; otherwise one cheap
+            // bound (what it leaves is nearly always an exact zero), then the integers.
+            if !g.orient_is_cheap()
+                && let Some(s) = predicates::orient_filter_len(pa, pb, pc, pd)
+            {
+                return s;
+            }
             return Sign::of(f64::from(g.orient(pa, pb, pc, pd)));
         }
-        let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
         if let Some(s) = beyond(self.orient_eps, || predicates::orient_det(pa, pb, pc, pd)) {
             return s;
         }
         if let Some(s) = predicates::orient_filter(pa, pb, pc, pd) {
             return s;
         }
-        match &self.grid {
-            Some(g) => Sign::of(f64::from(g.orient(pa, pb, pc, pd))),
-            None => predicates::orient_exact(pa, pb, pc, pd),
-        }
+        predicates::orient_exact(pa, pb, pc, pd)
     }
 
     /// [`predicates::insphere`] of five vertices.

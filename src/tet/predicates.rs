@@ -97,6 +97,29 @@ pub fn orient_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<Sign> {
     None
 }
 
+/// A cheaper bound for [`orient_filter`]'s determinant alone: every |difference| is at
+/// most `r = sqrt(len)`, `len` the largest squared edge from `a`, so `1e-14 r^3` is at
+/// least the per-axis bound. The sign, or `None`. For points on an integer grid, where the
+/// exact test follows at once (what this leaves is nearly always an exact zero).
+#[inline]
+pub fn orient_filter_len(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<Sign> {
+    let det = orient_det(a, b, c, d);
+    let (bx, by, bz) = (b.x - a.x, b.y - a.y, b.z - a.z);
+    let (cx, cy, cz) = (c.x - a.x, c.y - a.y, c.z - a.z);
+    let (dx, dy, dz) = (d.x - a.x, d.y - a.y, d.z - a.z);
+    let len = (bx * bx + by * by + bz * bz)
+        .max(cx * cx + cy * cy + cz * cz)
+        .max(dx * dx + dy * dy + dz * dz);
+    if len > 1e-100 && len < 1e100 && det.abs() > 1e-14 * len * len.sqrt() {
+        return Some(if det > 0.0 {
+            Sign::Positive
+        } else {
+            Sign::Negative
+        });
+    }
+    None
+}
+
 /// The `f64` determinant [`orient_filter`] decides on, without its error bound.
 #[inline]
 pub fn orient_det(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
@@ -420,21 +443,23 @@ mod tests {
     }
 
     #[test]
-    fn the_insphere_filter_is_exact_wherever_it_decides_on_flat_and_round_near_ties() {
+    fn the_filters_are_exact_wherever_they_decide_on_flat_and_round_near_ties() {
         // Jittered lattices from round boxes to flat slabs (one axis a millionth of the
         // others), at the origin and at UTM magnitudes: the filter's first bound (from the
         // largest lifted value) and its per-axis bound must never contradict the exact
         // sign, and between them they must decide the clear cases.
+        // The orientation tests (four points) need a finer jitter than the insphere tests
+        // to land near their bound: every other sample uses 1e-13.
         let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
+        let mut next = |size: f64| {
             state ^= state << 13;
             state ^= state >> 7;
             state ^= state << 17;
             let lattice = (state % 4) as f64;
-            let jitter = ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 1e-7;
+            let jitter = ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * size;
             lattice + jitter
         };
-        let (mut decided, mut checked) = (0, 0);
+        let (mut decided, mut decided_orient, mut checked) = (0, 0, 0);
         for scale in [
             DVec3::new(1.0, 1.0, 1.0),
             DVec3::new(50.0, 50.0, 1.0),
@@ -442,20 +467,35 @@ mod tests {
             DVec3::new(1e-6, 1.0, 1.0),
         ] {
             for origin in [DVec3::ZERO, DVec3::new(500_000.0, 6_500_000.0, 300.0)] {
-                for _ in 0..5_000 {
+                for k in 0..10_000 {
+                    let size = if k % 2 == 0 { 1e-7 } else { 1e-13 };
                     let p: [DVec3; 5] = std::array::from_fn(|_| {
-                        origin + DVec3::new(next(), next(), next()) * scale
+                        origin + DVec3::new(next(size), next(size), next(size)) * scale
                     });
                     let [a, b, c, d, e] = p;
                     if let Some(s) = insphere_filter(a, b, c, d, e) {
                         assert_eq!(s, insphere_robust(a, b, c, d, e), "{p:?}");
                         decided += 1;
                     }
+                    if let Ok(s) = insphere_filter_lift(a, b, c, d, e) {
+                        assert_eq!(s, insphere_robust(a, b, c, d, e), "{p:?}");
+                    }
+                    for s in [orient_filter(a, b, c, d), orient_filter_len(a, b, c, d)]
+                        .into_iter()
+                        .flatten()
+                    {
+                        assert_eq!(s, orient_robust(a, b, c, d), "{p:?}");
+                        decided_orient += 1;
+                    }
                     checked += 1;
                 }
             }
         }
-        assert!(decided > checked / 2, "{decided} of {checked} decided");
+        assert!(decided > checked / 4, "{decided} of {checked} decided");
+        assert!(
+            decided_orient > checked,
+            "{decided_orient} of 2 x {checked} decided"
+        );
     }
 
     #[test]
