@@ -104,12 +104,10 @@ pub fn orient_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<Sign> {
 #[inline]
 pub fn orient_filter_len(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<Sign> {
     let det = orient_det(a, b, c, d);
-    let (bx, by, bz) = (b.x - a.x, b.y - a.y, b.z - a.z);
-    let (cx, cy, cz) = (c.x - a.x, c.y - a.y, c.z - a.z);
-    let (dx, dy, dz) = (d.x - a.x, d.y - a.y, d.z - a.z);
-    let len = (bx * bx + by * by + bz * bz)
-        .max(cx * cx + cy * cy + cz * cz)
-        .max(dx * dx + dy * dy + dz * dz);
+    let len = (b - a)
+        .length_squared()
+        .max((c - a).length_squared())
+        .max((d - a).length_squared());
     if len > 1e-100 && len < 1e100 && det.abs() > 1e-14 * len * len.sqrt() {
         return Some(if det > 0.0 {
             Sign::Positive
