@@ -433,8 +433,8 @@ impl Geometry<'_> {
             // On a grid the exact test is integer arithmetic, and what the first bound
             // leaves is nearly always an exact tie: no second bound.
             Some(g) => match predicates::insphere_filter_lift(pa, pb, pc, pd, pe) {
-                Ok(s) => s,
-                Err(_) => Sign::of(f64::from(g.insphere(pa, pb, pc, pd, pe))),
+                Some(s) => s,
+                None => Sign::of(f64::from(g.insphere(pa, pb, pc, pd, pe))),
             },
             None => match predicates::insphere_filter(pa, pb, pc, pd, pe) {
                 Some(s) => s,

@@ -108,14 +108,19 @@ pub fn orient_filter_len(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<Sign>
         .length_squared()
         .max((c - a).length_squared())
         .max((d - a).length_squared());
-    if len > 1e-100 && len < 1e100 && det.abs() > 1e-14 * len * len.sqrt() {
-        return Some(if det > 0.0 {
-            Sign::Positive
-        } else {
-            Sign::Negative
-        });
-    }
-    None
+    (len > 1e-100 && len < 1e100)
+        .then(|| sign_beyond(det, 1e-14 * len * len.sqrt()))
+        .flatten()
+}
+
+/// The sign of `det` when `|det|` exceeds the error bound `eps`.
+#[inline(always)]
+fn sign_beyond(det: f64, eps: f64) -> Option<Sign> {
+    (det.abs() > eps).then_some(if det > 0.0 {
+        Sign::Positive
+    } else {
+        Sign::Negative
+    })
 }
 
 /// The `f64` determinant [`orient_filter`] decides on, without its error bound.
@@ -168,33 +173,29 @@ pub fn insphere(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Sign {
 /// bound proves it, else `None`.
 #[inline]
 pub fn insphere_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Option<Sign> {
-    insphere_filter_lift(a, b, c, d, e)
-        .or_else(|det| insphere_filter_per_axis(a, b, c, d, e, det).ok_or(()))
-        .ok()
+    let (det, lift) = insphere_det_lift(a, b, c, d, e);
+    lift_bound(det, lift).or_else(|| insphere_filter_per_axis(a, b, c, d, e, det))
 }
 
-/// The first bound of [`insphere_filter`] alone: the sign, or the determinant it could not
-/// decide. For points on an integer grid, whose exact test is cheap and whose undecided
-/// tests are nearly all exact ties, which no bound decides.
+/// The first bound of [`insphere_filter`] alone. For points on an integer grid, whose
+/// exact test is cheap and whose undecided tests are nearly all exact ties, which no bound
+/// decides.
 #[inline]
-pub fn insphere_filter_lift(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Result<Sign, f64> {
+pub fn insphere_filter_lift(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Option<Sign> {
     let (det, lift) = insphere_det_lift(a, b, c, d, e);
-    // First a bound that costs three `max` and a square root: every |difference| is at
-    // most r = sqrt(lift) (the largest lifted value), so r^5 bounds the product of the
-    // per-axis maxima below, and 5e-13 r^5 bounds the error. It is looser than the per-axis
-    // bound only on flat configurations, which then take the per-axis one; on well
-    // lattices (no static bound) the per-axis maxima cost more than the determinant.
-    if lift > 1e-100 && lift < 1e100 {
-        let eps = 5e-13 * lift * lift * lift.sqrt();
-        if det.abs() > eps {
-            return Ok(if det > 0.0 {
-                Sign::Positive
-            } else {
-                Sign::Negative
-            });
-        }
-    }
-    Err(det)
+    lift_bound(det, lift)
+}
+
+/// A bound that costs three `max` and a square root: every |difference| is at most
+/// `r = sqrt(lift)` (the largest lifted value), so `r^5` bounds the product of the per-axis
+/// maxima below, and `5e-13 r^5` bounds the error. It is looser than the per-axis bound
+/// only on flat configurations, which then take the per-axis one; on well lattices (no
+/// static bound) the per-axis maxima cost more than the determinant.
+#[inline(always)]
+fn lift_bound(det: f64, lift: f64) -> Option<Sign> {
+    (lift > 1e-100 && lift < 1e100)
+        .then(|| sign_beyond(det, 5e-13 * lift * lift * lift.sqrt()))
+        .flatten()
 }
 
 /// The per-axis bound of [`insphere_filter`], out of line: inlined, its maxima were
@@ -475,7 +476,7 @@ mod tests {
                         assert_eq!(s, insphere_robust(a, b, c, d, e), "{p:?}");
                         decided += 1;
                     }
-                    if let Ok(s) = insphere_filter_lift(a, b, c, d, e) {
+                    if let Some(s) = insphere_filter_lift(a, b, c, d, e) {
                         assert_eq!(s, insphere_robust(a, b, c, d, e), "{p:?}");
                     }
                     for s in [orient_filter(a, b, c, d), orient_filter_len(a, b, c, d)]
