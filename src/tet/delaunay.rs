@@ -14,7 +14,7 @@ use std::ops::Range;
 use std::sync::atomic::AtomicU32;
 use std::sync::atomic::Ordering::Relaxed;
 
-use super::exact_int::Grid;
+use super::exact_int::{self, Grid};
 use super::predicates::{self, Sign};
 use super::sort::{InsertionOrder, insertion_order};
 use super::{FACE_OUTWARD, NO_NEIGHBOUR, TetError, TetMesh};
@@ -408,6 +408,9 @@ impl Geometry<'_> {
                 && let Some(s) = predicates::orient_filter_len(pa, pb, pc, pd)
             {
                 return s;
+            }
+            if exact_int::coplanar_by_construction([pa, pb, pc, pd]) {
+                return Sign::Zero;
             }
             return Sign::of(f64::from(g.orient(pa, pb, pc, pd)));
         }
@@ -1243,7 +1246,7 @@ fn finish(mut cells: Vec<Cell>) -> (Vec<[u32; 4]>, Vec<[u32; 4]>) {
     // Zeroed outputs are not resident until written.
     let mut tets = vec![[0u32; 4]; live];
     let mut nbrs = vec![[0u32; 4]; live];
-    const CHUNK: usize = 1 << 16;
+    const CHUNK: usize = 1 << 14;
     let mut end = live;
     while end > 0 {
         let start = end.saturating_sub(CHUNK);

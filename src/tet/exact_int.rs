@@ -465,6 +465,31 @@ fn concyclic_by_construction(v: &[[i128; 3]; 4]) -> bool {
     false
 }
 
+/// Are the four points coplanar by construction, which makes their orientation exactly
+/// zero? True when they share one coordinate (a plane across that axis: a sampling depth),
+/// or lie on at most two lines parallel to one coordinate axis (two parallel lines span a
+/// plane; one line and any point too).
+///
+/// Vertical wells make these the orientation ties of well data: counted on the 1M UTM
+/// lattice, every orientation the float filter left was an exact zero, 95% of them points
+/// on at most two wells and the rest points of one depth. Plain float comparisons, exact
+/// for any coordinates, so this answers before any integer arithmetic.
+pub fn coplanar_by_construction(p: [DVec3; 4]) -> bool {
+    // The vertical axis first: wells.
+    // Each axis' answer without branches (which of the cases holds is unpredictable).
+    let across = |k: usize, k1: usize, k2: usize| {
+        let plane = (p[1][k] == p[0][k]) & (p[2][k] == p[0][k]) & (p[3][k] == p[0][k]);
+        // Points repeating an earlier one's position across axis `k`: at least two
+        // repeats leave at most two distinct lines.
+        let same = |i: usize, j: usize| (p[i][k1] == p[j][k1]) & (p[i][k2] == p[j][k2]);
+        let repeats = u32::from(same(0, 1))
+            + u32::from(same(0, 2) | same(1, 2))
+            + u32::from(same(0, 3) | same(1, 3) | same(2, 3));
+        plane | (repeats >= 2)
+    };
+    across(2, 0, 1) || across(0, 1, 2) || across(1, 2, 0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -617,6 +642,61 @@ mod tests {
         }
         assert!(
             nonzero_misses > 2900,
+            "near misses are not ties: {nonzero_misses}"
+        );
+    }
+
+    #[test]
+    fn points_on_two_axis_lines_or_one_axis_plane_are_coplanar_and_near_misses_are_not() {
+        let mut state = 0x0bad_cafe_f00d_1234u64;
+        let mut c = move || ((xorshift(&mut state) >> 20) as i64 - (1i64 << 43)) as f64 * 0.125;
+        let mut nonzero_misses = 0;
+        for round in 0..3000 {
+            let k = round % 3;
+            // A point with coordinate `h` along axis `k` and `(x, y)` across it.
+            let at = |x: f64, y: f64, h: f64| {
+                let mut p = DVec3::ZERO;
+                p[k] = h;
+                p[(k + 1) % 3] = x;
+                p[(k + 2) % 3] = y;
+                p
+            };
+            let (x1, y1, x2, y2) = (c(), c(), c(), c());
+            let (h1, h2, h3, h4) = (c(), c(), c(), c());
+            let two_lines = [
+                at(x1, y1, h1),
+                at(x2, y2, h2),
+                at(x1, y1, h3),
+                at(x2, y2, h4),
+            ];
+            let one_line_and_one = [
+                at(x1, y1, h1),
+                at(x1, y1, h2),
+                at(x2, y2, h3),
+                at(x1, y1, h4),
+            ];
+            let one_plane = [
+                at(x1, y1, h1),
+                at(x2, y2, h1),
+                at(c(), c(), h1),
+                at(c(), c(), h1),
+            ];
+            for set in [two_lines, one_line_and_one, one_plane] {
+                assert!(coplanar_by_construction(set), "axis {k}: {set:?}");
+                assert_eq!(robust_orient(set[0], set[1], set[2], set[3]), 0, "{set:?}");
+            }
+            // One point moved off its line (or plane) by one unit of the grid.
+            let mut miss = two_lines;
+            miss[round % 4][(k + 1) % 3] += 0.125;
+            let mut flat_miss = one_plane;
+            flat_miss[round % 4][k] += 0.125;
+            for set in [miss, flat_miss] {
+                assert!(!coplanar_by_construction(set), "axis {k}: {set:?}");
+                nonzero_misses += usize::from(robust_orient(set[0], set[1], set[2], set[3]) != 0);
+            }
+        }
+        assert!(
+            nonzero_misses > 5900,
             "near misses are not ties: {nonzero_misses}"
         );
     }

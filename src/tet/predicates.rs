@@ -148,6 +148,9 @@ pub fn static_bounds(extent: DVec3) -> Option<(f64, f64)> {
 /// [`orient`] without the filter: fixed-width integers when the coordinates share a
 /// binary grid, else `robust::orient3d` negated (its convention is the opposite).
 pub fn orient_exact(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Sign {
+    if exact_int::coplanar_by_construction([a, b, c, d]) {
+        return Sign::Zero;
+    }
     match exact_int::orient_sign(a, b, c, d) {
         Some(s) => Sign::of(f64::from(s)),
         None => orient_robust(a, b, c, d),
@@ -331,7 +334,18 @@ pub fn in_sphere_perturbed(t: [DVec3; 4], q: DVec3) -> bool {
 /// coordinate axis, returned with `orient(a, b, c, apex)`'s sign (never zero).
 fn apex_off_plane(a: DVec3, b: DVec3, c: DVec3) -> (DVec3, Sign) {
     let step = 1.0 + a.abs().max_element();
-    for axis in 0..3 {
+    // The axis nearest the plane's normal first: that orientation is far from zero, so the
+    // float filter decides it (an axis within the plane, as on the flat top of well data,
+    // would give an exact zero, and cost the exact predicate).
+    let n = (b - a).cross(c - a).abs();
+    let first = if n.x >= n.y && n.x >= n.z {
+        0
+    } else if n.y >= n.z {
+        1
+    } else {
+        2
+    };
+    for axis in [first, (first + 1) % 3, (first + 2) % 3] {
         let mut apex = a;
         apex[axis] += step;
         let s = orient(a, b, c, apex);
