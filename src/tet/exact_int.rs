@@ -406,6 +406,9 @@ impl Grid {
     /// set.
     #[inline]
     pub fn insphere(&self, a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> i32 {
+        if !self.insphere_small && concyclic_on_vertical_lines([a, b, c, d], e) {
+            return 0;
+        }
         let s = self.scale;
         let g = |q: DVec3| [(q.x * s) as i64, (q.y * s) as i64, (q.z * s) as i64];
         let ge = g(e);
@@ -422,6 +425,32 @@ impl Grid {
             insphere_wide(v)
         }
     }
+}
+
+/// [`concyclic_by_construction`] for lines parallel to the vertical axis (wells), the
+/// common case, on the coordinates themselves and without branches (whether it holds is
+/// unpredictable). `e` is the fifth point. Exact for points of a [`Grid`]: float equality
+/// is exact, and so is the sum of two coordinates (a multiple of the unit below 2^48 units,
+/// which a double holds).
+fn concyclic_on_vertical_lines(p: [DVec3; 4], e: DVec3) -> bool {
+    let on_e = p.map(|q| (q.x == e.x) & (q.y == e.y));
+    let mut found = false;
+    for (j, l, i1, i2) in [
+        (0, 1, 2, 3),
+        (0, 2, 1, 3),
+        (0, 3, 1, 2),
+        (1, 2, 0, 3),
+        (1, 3, 0, 2),
+        (2, 3, 0, 1),
+    ] {
+        // `j`, `l` on one vertical line other than `e`'s, and `i` on `e`'s, with equal
+        // depth sums.
+        let pair = (p[j].x == p[l].x) & (p[j].y == p[l].y) & !on_e[j];
+        let sum = p[j].z + p[l].z;
+        found |= pair & on_e[i1] & (sum == p[i1].z + e.z);
+        found |= pair & on_e[i2] & (sum == p[i2].z + e.z);
+    }
+    found
 }
 
 /// Are four of the five points concyclic by construction, which makes their insphere
@@ -631,10 +660,19 @@ mod tests {
                     _ => [other, q, p, on_e],
                 };
                 assert!(concyclic_by_construction(&tie), "axis {k}: {tie:?}");
+                assert_eq!(
+                    concyclic_on_vertical_lines(tie.map(as_point), DVec3::ZERO),
+                    k == 2,
+                    "axis {k}: {tie:?}"
+                );
                 assert_eq!(insphere_wide(tie), 0, "axis {k}: {tie:?}");
                 assert_eq!(robust_insphere(with_e(tie)), 0, "axis {k}: {tie:?}");
                 let miss = [on_e, p, near, other];
                 assert!(!concyclic_by_construction(&miss), "axis {k}: {miss:?}");
+                assert!(!concyclic_on_vertical_lines(
+                    miss.map(as_point),
+                    DVec3::ZERO
+                ));
                 let sign = insphere_wide(miss);
                 assert_eq!(sign, robust_insphere(with_e(miss)), "axis {k}: {miss:?}");
                 nonzero_misses += usize::from(sign != 0);
