@@ -402,15 +402,20 @@ impl Geometry<'_> {
     fn orient(&self, a: u32, b: u32, c: u32, d: u32) -> Sign {
         let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
         if let Some(g) = &self.grid {
-            // In i64 the exact test costs no more than a filter; otherwise one cheap
-            // bound (what it leaves is nearly always an exact zero), then the integers.
-            if !g.orient_is_cheap()
-                && let Some(s) = predicates::orient_filter_len(pa, pb, pc, pd)
-            {
-                return s;
-            }
-            if exact_int::coplanar_by_construction([pa, pb, pc, pd]) {
-                return Sign::Zero;
+            // In i64 the exact test costs no more than a filter. Otherwise the static bound,
+            // then one cheap per-call bound on the same determinant (what they leave is
+            // nearly always an exact zero, and then nearly always one by construction),
+            // then the integers.
+            if !g.orient_is_cheap() {
+                let det = predicates::orient_det(pa, pb, pc, pd);
+                if let Some(s) = predicates::sign_beyond(det, self.orient_eps)
+                    .or_else(|| predicates::orient_len_bound(det, pa, pb, pc, pd))
+                {
+                    return s;
+                }
+                if exact_int::coplanar_by_construction([pa, pb, pc, pd]) {
+                    return Sign::Zero;
+                }
             }
             return Sign::of(f64::from(g.orient(pa, pb, pc, pd)));
         }
@@ -427,22 +432,30 @@ impl Geometry<'_> {
     #[inline]
     fn insphere(&self, [a, b, c, d]: [u32; 4], e: u32) -> Sign {
         let (pa, pb, pc, pd, pe) = (self.p(a), self.p(b), self.p(c), self.p(d), self.p(e));
-        if let Some(s) = beyond(self.insphere_eps, || {
-            predicates::insphere_det(pa, pb, pc, pd, pe)
-        }) {
-            return s;
-        }
         match &self.grid {
-            // On a grid the exact test is integer arithmetic, and what the first bound
-            // leaves is nearly always an exact tie: no second bound.
-            Some(g) => match predicates::insphere_filter_lift(pa, pb, pc, pd, pe) {
-                Some(s) => s,
-                None => Sign::of(f64::from(g.insphere(pa, pb, pc, pd, pe))),
-            },
-            None => match predicates::insphere_filter(pa, pb, pc, pd, pe) {
-                Some(s) => s,
-                None => predicates::insphere_exact(pa, pb, pc, pd, pe),
-            },
+            // On a grid the exact test is integer arithmetic, and what the static bound
+            // leaves is nearly always an exact tie: one cheap bound on the same
+            // determinant, no per-axis bound.
+            Some(g) => {
+                let (det, lift) = predicates::insphere_det_lift(pa, pb, pc, pd, pe);
+                match predicates::sign_beyond(det, self.insphere_eps)
+                    .or_else(|| predicates::lift_bound(det, lift))
+                {
+                    Some(s) => s,
+                    None => Sign::of(f64::from(g.insphere(pa, pb, pc, pd, pe))),
+                }
+            }
+            None => {
+                if let Some(s) = beyond(self.insphere_eps, || {
+                    predicates::insphere_det(pa, pb, pc, pd, pe)
+                }) {
+                    return s;
+                }
+                match predicates::insphere_filter(pa, pb, pc, pd, pe) {
+                    Some(s) => s,
+                    None => predicates::insphere_exact(pa, pb, pc, pd, pe),
+                }
+            }
         }
     }
 
@@ -900,13 +913,8 @@ impl<'a> Builder<'a> {
         } else {
             Vec::new()
         };
-        // Points on a grid (lattices, well data at UTM) are full of near-ties that fail the
-        // static bound too, and would pay for two determinants: per-call bounds only.
-        let (orient_eps, insphere_eps) = match grid {
-            None => predicates::static_bounds(extent),
-            Some(_) => None,
-        }
-        .unwrap_or((f64::INFINITY, f64::INFINITY));
+        let (orient_eps, insphere_eps) =
+            predicates::static_bounds(extent).unwrap_or((f64::INFINITY, f64::INFINITY));
         // Uniform points give ~6.7 tetrahedra per point. The array is allocated zeroed
         // (free slots, see `Cell::is_dead`), so its pages are neither written here nor
         // resident until a worker fills a slot there: no sequential pass over the array.

@@ -103,7 +103,12 @@ pub fn orient_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<Sign> {
 /// exact test follows at once (what this leaves is nearly always an exact zero).
 #[inline]
 pub fn orient_filter_len(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<Sign> {
-    let det = orient_det(a, b, c, d);
+    orient_len_bound(orient_det(a, b, c, d), a, b, c, d)
+}
+
+/// [`orient_filter_len`]'s bound on an [`orient_det`] already computed.
+#[inline]
+pub(super) fn orient_len_bound(det: f64, a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<Sign> {
     let len = (b - a)
         .length_squared()
         .max((c - a).length_squared())
@@ -115,7 +120,7 @@ pub fn orient_filter_len(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<Sign>
 
 /// The sign of `det` when `|det|` exceeds the error bound `eps`.
 #[inline(always)]
-fn sign_beyond(det: f64, eps: f64) -> Option<Sign> {
+pub(super) fn sign_beyond(det: f64, eps: f64) -> Option<Sign> {
     (det.abs() > eps).then_some(if det > 0.0 {
         Sign::Positive
     } else {
@@ -195,7 +200,7 @@ pub fn insphere_filter_lift(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) ->
 /// only on flat configurations, which then take the per-axis one; on well lattices (no
 /// static bound) the per-axis maxima cost more than the determinant.
 #[inline(always)]
-fn lift_bound(det: f64, lift: f64) -> Option<Sign> {
+pub(super) fn lift_bound(det: f64, lift: f64) -> Option<Sign> {
     (lift > 1e-100 && lift < 1e100)
         .then(|| sign_beyond(det, 5e-13 * lift * lift * lift.sqrt()))
         .flatten()
@@ -245,7 +250,7 @@ pub fn insphere_det(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> f64 {
 
 /// [`insphere_det`] and the largest of the four lifted values `|a - e|^2, ..`.
 #[inline(always)]
-fn insphere_det_lift(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> (f64, f64) {
+pub(super) fn insphere_det_lift(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> (f64, f64) {
     let (adx, ady, adz) = (a.x - e.x, a.y - e.y, a.z - e.z);
     let (bdx, bdy, bdz) = (b.x - e.x, b.y - e.y, b.z - e.z);
     let (cdx, cdy, cdz) = (c.x - e.x, c.y - e.y, c.z - e.z);
