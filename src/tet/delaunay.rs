@@ -465,10 +465,10 @@ impl Geometry<'_> {
             Sign::Negative => return false,
             Sign::Zero => {}
         }
-        let ids = [t[0], t[1], t[2], t[3], q];
         if !self.lex_rank.is_empty() {
             return self.perturbed_tie_ranked(t, q);
         }
+        let ids = [t[0], t[1], t[2], t[3], q];
         let greater = |i: usize, k: usize| {
             predicates::lex_cmp(self.p(ids[i]), self.p(ids[k])) == Ordering::Greater
         };
@@ -484,21 +484,31 @@ impl Geometry<'_> {
             if k == 4 {
                 return false;
             }
-            let mut r = t;
-            r[k] = q;
-            match self.orient(r[0], r[1], r[2], r[3]) {
-                Sign::Positive => return true,
-                Sign::Negative => return false,
-                Sign::Zero => {}
+            if let Some(inside) = self.replaced_orient(t, k, q) {
+                return inside;
             }
         }
         false
     }
 
+    /// One step of the tie-break: the sign of `orient` of `t` with its vertex `k` replaced
+    /// by `q` (true: `q` inside), or `None` when that is zero too.
+    #[inline]
+    fn replaced_orient(&self, t: [u32; 4], k: usize, q: u32) -> Option<bool> {
+        let mut r = t;
+        r[k] = q;
+        match self.orient(r[0], r[1], r[2], r[3]) {
+            Sign::Positive => Some(true),
+            Sign::Negative => Some(false),
+            Sign::Zero => None,
+        }
+    }
+
     /// The tie-break of [`Geometry::in_sphere_perturbed`] with lexicographic ranks (grids,
     /// where ties are common): the points visited from the highest rank down, each next
-    /// one picked as the largest of five keys `rank * 8 + position` (a maximum, without
-    /// the branches of a search, which mispredicted about twice per tie on well data).
+    /// one picked as the largest of five keys `(rank + 1) * 8 + position` (a maximum,
+    /// without the branches of a search, which mispredicted about twice per tie on well
+    /// data; a visited point's key becomes 0).
     fn perturbed_tie_ranked(&self, t: [u32; 4], q: u32) -> bool {
         let ids = [t[0], t[1], t[2], t[3], q];
         let mut keys = [0u64; 5];
@@ -512,12 +522,8 @@ impl Geometry<'_> {
                 return false;
             }
             keys[k] = 0;
-            let mut r = t;
-            r[k] = q;
-            match self.orient(r[0], r[1], r[2], r[3]) {
-                Sign::Positive => return true,
-                Sign::Negative => return false,
-                Sign::Zero => {}
+            if let Some(inside) = self.replaced_orient(t, k, q) {
+                return inside;
             }
         }
         false
