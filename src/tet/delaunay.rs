@@ -14,7 +14,7 @@ use std::ops::Range;
 use std::sync::atomic::AtomicU32;
 use std::sync::atomic::Ordering::Relaxed;
 
-use super::exact_int::{self, Grid};
+use super::exact_int::Grid;
 use super::predicates::{self, Sign};
 use super::sort::{InsertionOrder, insertion_order};
 use super::{FACE_OUTWARD, NO_NEIGHBOUR, TetError, TetMesh};
@@ -404,7 +404,7 @@ impl Geometry<'_> {
         if let Some(g) = &self.grid {
             // In i64 the exact test costs no more than a filter. Otherwise the static bound,
             // then one cheap per-call bound on the same determinant (what they leave is
-            // nearly always an exact zero, and then nearly always one by construction),
+            // nearly always an exact zero, which the grid's test answers by construction),
             // then the integers.
             if !g.orient_is_cheap() {
                 let det = predicates::orient_det(pa, pb, pc, pd);
@@ -412,9 +412,6 @@ impl Geometry<'_> {
                     .or_else(|| predicates::orient_len_bound(det, pa, pb, pc, pd))
                 {
                     return s;
-                }
-                if exact_int::coplanar_by_construction([pa, pb, pc, pd]) {
-                    return Sign::Zero;
                 }
             }
             return Sign::of(f64::from(g.orient(pa, pb, pc, pd)));

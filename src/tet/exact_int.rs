@@ -207,6 +207,9 @@ fn max_abs<const N: usize>(v: &[[i128; 3]; N]) -> i128 {
 
 /// Exact sign of `(b-a) . ((c-a) x (d-a))` (the `predicates::orient` convention).
 pub fn orient_sign(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<i32> {
+    if coplanar_by_construction([a, b, c, d]) {
+        return Some(0);
+    }
     let g = to_grid([a, b, c, d])?;
     let v = diffs(&g, 0)?;
     Some(orient_of_diffs([v[1], v[2], v[3]]))
@@ -373,6 +376,9 @@ impl Grid {
     /// Exact sign of `orient` (module conventions of `predicates`) of four points of the set.
     #[inline]
     pub fn orient(&self, a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> i32 {
+        if !self.orient_tiny && coplanar_by_construction([a, b, c, d]) {
+            return 0;
+        }
         let s = self.orient_scale;
         // Exact: a multiple of 2^lo[k] times 2^-lo[k] is an integer below 2^47.
         let p = |q: DVec3| {
@@ -503,9 +509,9 @@ fn concyclic_by_construction(v: &[[i128; 3]; 4]) -> bool {
 /// lattice, every orientation the float filter left was an exact zero, 95% of them points
 /// on at most two wells and the rest points of one depth. Plain float comparisons, exact
 /// for any coordinates, so this answers before any integer arithmetic.
-pub fn coplanar_by_construction(p: [DVec3; 4]) -> bool {
-    // The vertical axis first: wells.
-    // Each axis' answer without branches (which of the cases holds is unpredictable).
+fn coplanar_by_construction(p: [DVec3; 4]) -> bool {
+    // Each axis' answer without branches (which of the cases holds is unpredictable); the
+    // vertical axis first: wells.
     let across = |k: usize, k1: usize, k2: usize| {
         let plane = (p[1][k] == p[0][k]) & (p[2][k] == p[0][k]) & (p[3][k] == p[0][k]);
         // Points repeating an earlier one's position across axis `k`: at least two

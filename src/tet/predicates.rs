@@ -97,16 +97,11 @@ pub fn orient_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<Sign> {
     None
 }
 
-/// A cheaper bound for [`orient_filter`]'s determinant alone: every |difference| is at
-/// most `r = sqrt(len)`, `len` the largest squared edge from `a`, so `1e-14 r^3` is at
-/// least the per-axis bound. The sign, or `None`. For points on an integer grid, where the
-/// exact test follows at once (what this leaves is nearly always an exact zero).
-#[inline]
-pub fn orient_filter_len(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<Sign> {
-    orient_len_bound(orient_det(a, b, c, d), a, b, c, d)
-}
-
-/// [`orient_filter_len`]'s bound on an [`orient_det`] already computed.
+/// A cheaper bound than [`orient_filter`]'s on its determinant `det` ([`orient_det`],
+/// computed by the caller): every |difference| is at most `r = sqrt(len)`, `len` the
+/// largest squared edge from `a`, so `1e-14 r^3` is at least the per-axis bound. The sign,
+/// or `None`. For points on an integer grid, where the exact test follows at once (what
+/// this leaves is nearly always an exact zero).
 #[inline]
 pub(super) fn orient_len_bound(det: f64, a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Option<Sign> {
     let len = (b - a)
@@ -153,9 +148,6 @@ pub fn static_bounds(extent: DVec3) -> Option<(f64, f64)> {
 /// [`orient`] without the filter: fixed-width integers when the coordinates share a
 /// binary grid, else `robust::orient3d` negated (its convention is the opposite).
 pub fn orient_exact(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Sign {
-    if exact_int::coplanar_by_construction([a, b, c, d]) {
-        return Sign::Zero;
-    }
     match exact_int::orient_sign(a, b, c, d) {
         Some(s) => Sign::of(f64::from(s)),
         None => orient_robust(a, b, c, d),
@@ -185,20 +177,12 @@ pub fn insphere_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Opti
     lift_bound(det, lift).or_else(|| insphere_filter_per_axis(a, b, c, d, e, det))
 }
 
-/// The first bound of [`insphere_filter`] alone. For points on an integer grid, whose
-/// exact test is cheap and whose undecided tests are nearly all exact ties, which no bound
-/// decides.
-#[inline]
-pub fn insphere_filter_lift(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Option<Sign> {
-    let (det, lift) = insphere_det_lift(a, b, c, d, e);
-    lift_bound(det, lift)
-}
-
 /// A bound that costs three `max` and a square root: every |difference| is at most
 /// `r = sqrt(lift)` (the largest lifted value), so `r^5` bounds the product of the per-axis
 /// maxima below, and `5e-13 r^5` bounds the error. It is looser than the per-axis bound
-/// only on flat configurations, which then take the per-axis one; on well lattices (no
-/// static bound) the per-axis maxima cost more than the determinant.
+/// only on flat configurations, which then take the per-axis one. On integer grids it is
+/// the only bound before the exact integers (their undecided tests are nearly all exact
+/// ties, which no bound decides).
 #[inline(always)]
 pub(super) fn lift_bound(det: f64, lift: f64) -> Option<Sign> {
     (lift > 1e-100 && lift < 1e100)
@@ -495,12 +479,16 @@ mod tests {
                         assert_eq!(s, insphere_robust(a, b, c, d, e), "{p:?}");
                         decided += 1;
                     }
-                    if let Some(s) = insphere_filter_lift(a, b, c, d, e) {
+                    let (det, lift) = insphere_det_lift(a, b, c, d, e);
+                    if let Some(s) = lift_bound(det, lift) {
                         assert_eq!(s, insphere_robust(a, b, c, d, e), "{p:?}");
                     }
-                    for s in [orient_filter(a, b, c, d), orient_filter_len(a, b, c, d)]
-                        .into_iter()
-                        .flatten()
+                    for s in [
+                        orient_filter(a, b, c, d),
+                        orient_len_bound(orient_det(a, b, c, d), a, b, c, d),
+                    ]
+                    .into_iter()
+                    .flatten()
                     {
                         assert_eq!(s, orient_robust(a, b, c, d), "{p:?}");
                         decided_orient += 1;
