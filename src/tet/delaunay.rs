@@ -1113,10 +1113,14 @@ impl<'a> Builder<'a> {
     /// the rest sequentially, in order.
     fn insert_parallel(&mut self, range: Range<u32>, first: &[u32; 4]) {
         let ids: Vec<u32> = range.filter(|v| !first.contains(v)).collect();
-        let mut rest = self.zoned_pass(ids);
+        let (mut rest, axis) = self.zoned_pass(ids, None);
         // The vertices given up lie near the cut: split them again across another axis.
+        // Not the longest of their box whatever it is: the few given up far from the cut
+        // (a cavity reaching across it) stretch that box along the first axis as well,
+        // and in the last BRIO round, whose pieces are about half as wide as they are
+        // long, the second cut fell on the first one and gave up ~99% again.
         if rest.len() >= SECOND_PASS_MIN {
-            rest = self.zoned_pass(rest);
+            rest = self.zoned_pass(rest, Some(axis)).0;
         }
         for v in rest {
             self.insert_sequential(v);
@@ -1124,9 +1128,9 @@ impl<'a> Builder<'a> {
     }
 
     /// One parallel pass over `ids` (increasing): split into slabs of equal counts across
-    /// the longest axis of their bounding box, one worker per slab. Returns the vertices
-    /// the workers gave up, increasing.
-    fn zoned_pass(&mut self, ids: Vec<u32>) -> Vec<u32> {
+    /// the longest axis of their bounding box other than `not_across`, one worker per
+    /// slab. Returns the vertices the workers gave up, increasing, and the axis cut.
+    fn zoned_pass(&mut self, ids: Vec<u32>, not_across: Option<usize>) -> (Vec<u32>, usize) {
         let pts = self.g.pts;
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
@@ -1134,7 +1138,11 @@ impl<'a> Builder<'a> {
             lo = lo.min(pts[v as usize]);
             hi = hi.max(pts[v as usize]);
         }
-        let axis = (hi - lo).max_position();
+        let mut extent = hi - lo;
+        if let Some(a) = not_across {
+            extent[a] = f64::NEG_INFINITY;
+        }
+        let axis = extent.max_position();
         let mut coords: Vec<f64> = ids.iter().map(|&v| pts[v as usize][axis]).collect();
         let k = self.workers.len();
         let mut cuts = vec![f64::NEG_INFINITY];
@@ -1205,7 +1213,7 @@ impl<'a> Builder<'a> {
             .flat_map(|w| w.deferred.drain(..))
             .collect();
         rest.sort_unstable();
-        rest
+        (rest, axis)
     }
 
     /// A live tetrahedron with all four vertices in `zone` near vertex `v`: the one the
