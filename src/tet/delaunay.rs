@@ -69,13 +69,16 @@ pub fn build(points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh, Tet
     } else {
         1
     };
-    build_in_zones(points, zones, progress)
+    build_in_zones(points, zones, false, progress)
 }
 
-/// [`build`] with `zones` workers in the parallel chunks (1: all sequential).
+/// [`build`] with `zones` workers in the parallel chunks (1: all sequential), and with
+/// the insertion's portable copy only if `portable` (else the x86-64-v3 one where the
+/// processor has it; both give the same mesh, tetrahedron for tetrahedron).
 fn build_in_zones(
     mut points: Vec<DVec3>,
     zones: usize,
+    portable: bool,
     progress: &dyn Progress,
 ) -> Result<TetMesh, TetError> {
     if points.len() > MAX_POINTS {
@@ -113,7 +116,8 @@ fn build_in_zones(
     for p in &mut points {
         *p -= shift;
     }
-    let built = Builder::run(&points, extent, &rounds, zones, progress);
+    let x86_64_v3 = !portable && x86_64_v3_detected();
+    let built = Builder::run(&points, extent, &rounds, zones, x86_64_v3, progress);
     for p in &mut points {
         *p += shift;
     }
@@ -276,6 +280,9 @@ struct Geometry<'a> {
     /// sign is decided without the per-call bound.
     orient_eps: f64,
     insphere_eps: f64,
+    /// Insert with the copy compiled for x86-64-v3 (the processor has it, and the build
+    /// was not asked for the portable one).
+    x86_64_v3: bool,
 }
 
 /// The vertices a worker may remove tetrahedra of: those with `lo <= p[axis] < hi` and
@@ -398,7 +405,7 @@ impl Geometry<'_> {
     }
 
     /// [`predicates::orient`] of four vertices.
-    #[inline]
+    #[inline(always)]
     fn orient(&self, a: u32, b: u32, c: u32, d: u32) -> Sign {
         let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
         if let Some(g) = &self.grid {
@@ -426,7 +433,7 @@ impl Geometry<'_> {
     }
 
     /// [`predicates::insphere`] of five vertices.
-    #[inline]
+    #[inline(always)]
     fn insphere(&self, [a, b, c, d]: [u32; 4], e: u32) -> Sign {
         let (pa, pb, pc, pd, pe) = (self.p(a), self.p(b), self.p(c), self.p(d), self.p(e));
         match &self.grid {
@@ -456,12 +463,18 @@ impl Geometry<'_> {
     }
 
     /// [`predicates::in_sphere_perturbed`] of the positive tetrahedron `t` and vertex `q`.
+    #[inline(always)]
     fn in_sphere_perturbed(&self, t: [u32; 4], q: u32) -> bool {
         match self.insphere(t, q) {
-            Sign::Positive => return true,
-            Sign::Negative => return false,
-            Sign::Zero => {}
+            Sign::Positive => true,
+            Sign::Negative => false,
+            Sign::Zero => self.perturbed_tie(t, q),
         }
+    }
+
+    /// The symbolic perturbation's answer where the in-sphere determinant is zero.
+    #[inline(never)]
+    fn perturbed_tie(&self, t: [u32; 4], q: u32) -> bool {
         if !self.lex_rank.is_empty() {
             return self.perturbed_tie_ranked(t, q);
         }
@@ -529,7 +542,7 @@ impl Geometry<'_> {
     /// Does vertex `v` conflict with the tetrahedron of vertices `tv` (inside its
     /// perturbed circumsphere, or for a ghost, strictly beyond its hull face or on it
     /// inside the face's circumcircle)?
-    #[inline]
+    #[inline(always)]
     fn conflict(&self, tv: [u32; 4], v: u32) -> bool {
         if tv[3] == INF {
             match self.orient(tv[0], tv[1], tv[2], v) {
@@ -604,6 +617,7 @@ impl Worker {
     /// tetrahedron containing `q`, or (in [`Zone::ALL`]) a ghost whose hull face `q` is
     /// strictly beyond. The face the walk came through is not tested again. `None` when
     /// the walk meets a tetrahedron outside `zone`.
+    #[inline(always)]
     fn locate(&mut self, g: &Geometry, cells: &[Cell], q: u32, zone: Zone) -> Option<u32> {
         let mut t = self.last;
         if self.star_hint {
@@ -647,6 +661,7 @@ impl Worker {
 
     /// The finite tetrahedron of the last insertion's star whose face opposite the new
     /// vertex has its centroid nearest `q`, if it is still live as built.
+    #[inline(always)]
     fn star_toward(&self, g: &Geometry, cells: &[Cell], q: u32) -> Option<u32> {
         let &(first, f, _) = self.pending.first()?;
         // The face sum is the tetrahedron's vertex sum less the new vertex.
@@ -681,6 +696,43 @@ impl Worker {
     /// writing the new tetrahedra over the cavity's slots first. Changes nothing when it
     /// misses (a tetrahedron outside `zone`, or too few slots).
     fn insert(&mut self, g: &Geometry, cells: &[Cell], v: u32, zone: Zone) -> Result<(), Missed> {
+        #[cfg(target_arch = "x86_64")]
+        if g.x86_64_v3 {
+            // SAFETY: `x86_64_v3` is true only when the processor reported every feature
+            // `insert_x86_64_v3` is compiled for (see `x86_64_v3_detected`).
+            #[allow(unsafe_code)]
+            return unsafe { self.insert_x86_64_v3(g, cells, v, zone) };
+        }
+        self.insert_body(g, cells, v, zone)
+    }
+
+    /// [`Worker::insert`] compiled for the x86-64-v3 level (AVX2, BMI1/2, LZCNT, FMA,
+    /// POPCNT: Intel since 2013, AMD since 2015); called only where the processor has
+    /// them. The same source as the portable copy, so the same operations and the same
+    /// result: Rust never fuses a multiplication and an addition on its own, FMA or not.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,fma,lzcnt,popcnt")]
+    fn insert_x86_64_v3(
+        &mut self,
+        g: &Geometry,
+        cells: &[Cell],
+        v: u32,
+        zone: Zone,
+    ) -> Result<(), Missed> {
+        self.insert_body(g, cells, v, zone)
+    }
+
+    /// The insertion itself, inlined into both copies with everything it calls on the
+    /// common path (the walk, the predicates' float filters, the star's linking); only
+    /// rare paths (exact ties, large stars, the grid's wide integers) stay shared calls.
+    #[inline(always)]
+    fn insert_body(
+        &mut self,
+        g: &Geometry,
+        cells: &[Cell],
+        v: u32,
+        zone: Zone,
+    ) -> Result<(), Missed> {
         let t0 = self.locate(g, cells, v, zone);
         // The buffers are rebuilt below; only a complete insertion leaves a star.
         self.star_hint = false;
@@ -783,6 +835,7 @@ impl Worker {
 
     /// Links the new tetrahedra to each other: two of them share a face through the new
     /// vertex exactly when they share the cavity-boundary edge opposite it.
+    #[inline(always)]
     fn link_new_tets(&mut self, cells: &[Cell]) {
         if !self.link_by_edge_matrix(cells) {
             self.link_by_edge_table(cells);
@@ -816,6 +869,7 @@ impl Worker {
     /// oriented surface, so every edge appears once each way). No probing and no clearing
     /// of the matrix: every entry read was written by this star. False (and nothing
     /// linked) when the star has more boundary vertices.
+    #[inline(always)]
     fn link_by_edge_matrix(&mut self, cells: &[Cell]) -> bool {
         self.vertex_keys.fill(NO_VERTEX);
         self.star_locals.clear();
@@ -933,6 +987,7 @@ impl<'a> Builder<'a> {
         extent: DVec3,
         rounds: &[usize],
         zones: usize,
+        x86_64_v3: bool,
         progress: &dyn Progress,
     ) -> Result<(Vec<[u32; 4]>, Vec<[u32; 4]>), TetError> {
         let first = initial_simplex(pts)?;
@@ -956,6 +1011,7 @@ impl<'a> Builder<'a> {
                 lex_rank,
                 orient_eps,
                 insphere_eps,
+                x86_64_v3,
             },
             cells: bytemuck::zeroed_vec(estimate),
             top: 0,
@@ -1337,6 +1393,21 @@ fn initial_simplex(pts: &[DVec3]) -> Result<[u32; 4], TetError> {
     Ok([a, b, c, d])
 }
 
+/// Does this processor have the x86-64-v3 features [`Worker::insert`] has a copy for?
+fn x86_64_v3_detected() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx2")
+            && std::is_x86_feature_detected!("bmi1")
+            && std::is_x86_feature_detected!("bmi2")
+            && std::is_x86_feature_detected!("fma")
+            && std::is_x86_feature_detected!("lzcnt")
+            && std::is_x86_feature_detected!("popcnt")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1401,7 +1472,7 @@ mod tests {
             .find_map(|centre| {
                 let mut with_centre = pts.clone();
                 with_centre.insert(centre, DVec3::ZERO);
-                let mesh = build_in_zones(with_centre, 1, &NoProgress).unwrap();
+                let mesh = build_in_zones(with_centre, 1, false, &NoProgress).unwrap();
                 let id = mesh.vertex_of_input[centre];
                 (id as usize > 2 * STAR_VERTICES).then_some((mesh, id))
             })
@@ -1464,10 +1535,10 @@ mod tests {
             ("utm lattice", exact),
             ("utm wells", jittered),
         ] {
-            let one = build_in_zones(pts.clone(), 1, &NoProgress).unwrap();
+            let one = build_in_zones(pts.clone(), 1, false, &NoProgress).unwrap();
             one.validate().unwrap();
             for zones in [2, 3] {
-                let many = build_in_zones(pts.clone(), zones, &NoProgress).unwrap();
+                let many = build_in_zones(pts.clone(), zones, false, &NoProgress).unwrap();
                 many.validate()
                     .unwrap_or_else(|e| panic!("{name}, {zones} zones: {e}"));
                 assert_eq!(many.duplicates_merged, one.duplicates_merged, "{name}");
@@ -1478,8 +1549,12 @@ mod tests {
                     .num_threads(1)
                     .build()
                     .unwrap()
-                    .install(|| build_in_zones(pts.clone(), zones, &NoProgress).unwrap());
+                    .install(|| build_in_zones(pts.clone(), zones, false, &NoProgress).unwrap());
                 assert_eq!(single, many, "{name}, {zones} zones on one thread");
+                // The portable copy of the insertion gives the same bytes as the one for
+                // x86-64-v3, which the other builds here use where the processor has it.
+                let portable = build_in_zones(pts.clone(), zones, true, &NoProgress).unwrap();
+                assert_eq!(portable, many, "{name}, {zones} zones, portable insertion");
             }
         }
     }

@@ -374,7 +374,7 @@ impl Grid {
     }
 
     /// Exact sign of `orient` (module conventions of `predicates`) of four points of the set.
-    #[inline]
+    #[inline(always)]
     pub fn orient(&self, a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> i32 {
         if !self.orient_tiny && coplanar_by_construction([a, b, c, d]) {
             return 0;
@@ -410,7 +410,7 @@ impl Grid {
 
     /// Exact sign of `insphere` (module conventions of `predicates`) of five points of the
     /// set.
-    #[inline]
+    #[inline(always)]
     pub fn insphere(&self, a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> i32 {
         if !self.insphere_small && concyclic_on_vertical_lines([a, b, c, d], e) {
             return 0;

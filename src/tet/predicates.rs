@@ -171,7 +171,7 @@ pub fn insphere(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Sign {
 
 /// The float filter of [`insphere`]: the exact sign when the `f64` determinant's error
 /// bound proves it, else `None`.
-#[inline]
+#[inline(always)]
 pub fn insphere_filter(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Option<Sign> {
     let (det, lift) = insphere_det_lift(a, b, c, d, e);
     lift_bound(det, lift).or_else(|| insphere_filter_per_axis(a, b, c, d, e, det))
