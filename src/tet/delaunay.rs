@@ -627,7 +627,14 @@ impl Worker {
         'walk: loop {
             let cell = &cells[t as usize];
             let tv = cell.verts();
-            if !zone.owns(g.coords, tv) {
+            // Entered through a face of an owned tetrahedron, only the vertex opposite
+            // that face is new.
+            let owned = if from < 4 {
+                zone.all || zone.owns_vertex(g.coords, tv[from])
+            } else {
+                zone.owns(g.coords, tv)
+            };
+            if !owned {
                 return None;
             }
             if tv[3] == INF {
@@ -663,15 +670,18 @@ impl Worker {
     /// vertex has its centroid nearest `q`, if it is still live as built.
     #[inline(always)]
     fn star_toward(&self, g: &Geometry, cells: &[Cell], q: u32) -> Option<u32> {
-        let &(first, f, _) = self.pending.first()?;
-        // The face sum is the tetrahedron's vertex sum less the new vertex.
-        let target = g.p(q) * 3.0 + g.p(first[f as usize]);
+        self.pending.first()?;
+        // Three times the centroid of each face, against three times `q`.
+        let target = g.p(q) * 3.0;
         let (mut best, mut best_k) = (f64::INFINITY, 0);
-        for (k, &(nv, _, _)) in self.pending.iter().enumerate() {
+        for (k, &(nv, f, _)) in self.pending.iter().enumerate() {
             if nv[3] == INF {
                 continue;
             }
-            let sum = g.p(nv[0]) + g.p(nv[1]) + g.p(nv[2]) + g.p(nv[3]);
+            // The face opposite the new vertex `nv[f]`.
+            let sum = g.p(nv[(f as usize + 1) & 3])
+                + g.p(nv[(f as usize + 2) & 3])
+                + g.p(nv[(f as usize + 3) & 3]);
             let d = (sum - target).length_squared();
             // Chosen by selects: which tetrahedron is nearer is unpredictable.
             let nearer = d < best;
@@ -772,7 +782,9 @@ impl Worker {
                 if raw[1] & MARK == 0 {
                     let tv2 = raw.map(|u| u & VERTEX_MASK);
                     if g.conflict(tv2, v) {
-                        if !zone.owns(g.coords, tv2) {
+                        // The face shared with `t` is owned (all of `t` is): only the
+                        // vertex of `t2` opposite it may be outside the zone.
+                        if !(zone.all || zone.owns_vertex(g.coords, tv2[(link & 3) as usize])) {
                             self.unmark(cells);
                             return Err(Missed::Foreign);
                         }
