@@ -327,6 +327,13 @@ impl Zone {
         }
     }
 
+    /// May the worker of this zone remove a tetrahedron entered through a face of one it
+    /// may remove? Only the vertex `u` opposite that face can be outside the zone.
+    #[inline(always)]
+    fn owns_beyond_owned_face(&self, coords: &[f64], u: u32) -> bool {
+        self.all || self.owns_vertex(coords, u)
+    }
+
     /// May the worker of this zone remove the tetrahedron `tv`? All four vertices are
     /// tested without short-circuits: nearly every tetrahedron is owned, and four
     /// predictable tests cost less than four branches.
@@ -627,10 +634,9 @@ impl Worker {
         'walk: loop {
             let cell = &cells[t as usize];
             let tv = cell.verts();
-            // Entered through a face of an owned tetrahedron, only the vertex opposite
-            // that face is new.
+            // Entered through a face of an owned tetrahedron: only its opposite vertex is new.
             let owned = if from < 4 {
-                zone.all || zone.owns_vertex(g.coords, tv[from])
+                zone.owns_beyond_owned_face(g.coords, tv[from])
             } else {
                 zone.owns(g.coords, tv)
             };
@@ -670,7 +676,9 @@ impl Worker {
     /// vertex has its centroid nearest `q`, if it is still live as built.
     #[inline(always)]
     fn star_toward(&self, g: &Geometry, cells: &[Cell], q: u32) -> Option<u32> {
-        self.pending.first()?;
+        if self.pending.is_empty() {
+            return None;
+        }
         // Three times the centroid of each face, against three times `q`.
         let target = g.p(q) * 3.0;
         let (mut best, mut best_k) = (f64::INFINITY, 0);
@@ -782,9 +790,8 @@ impl Worker {
                 if raw[1] & MARK == 0 {
                     let tv2 = raw.map(|u| u & VERTEX_MASK);
                     if g.conflict(tv2, v) {
-                        // The face shared with `t` is owned (all of `t` is): only the
-                        // vertex of `t2` opposite it may be outside the zone.
-                        if !(zone.all || zone.owns_vertex(g.coords, tv2[(link & 3) as usize])) {
+                        // `t` is owned, so the face it shares with `t2` is too.
+                        if !zone.owns_beyond_owned_face(g.coords, tv2[(link & 3) as usize]) {
                             self.unmark(cells);
                             return Err(Missed::Foreign);
                         }
