@@ -84,9 +84,8 @@ def check_set(name, points, general_position):
     check(run.returncode == 0, f"{name}: wellmesh exits 0 ({run.stdout.strip()}{run.stderr.strip()})")
     if run.returncode != 0:
         return
-    # The file's numbers are what the text said, read back the way wellmesh reads them.
-    given = np.loadtxt(xyz)
-    distinct = np.unique(given, axis=0)
+    # `%.17g` text gives back every double exactly.
+    distinct = np.unique(points, axis=0)
     pts, tets, offsets, types = read_vtu(vtu)
     check(len(pts) == len(distinct) and np.array_equal(rows_sorted(pts), rows_sorted(distinct)),
           f"{name}: the file holds the {len(distinct)} distinct input points exactly")

@@ -366,15 +366,10 @@ mod tests {
             2.5,
             f64::INFINITY,
         ];
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        let mut pick = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            xs[(state % xs.len() as u64) as usize]
-        };
-        let pts: Vec<DVec3> = (0..500)
-            .map(|_| DVec3::new(pick(), pick(), pick()))
+        // Every combination, each twice (equal points).
+        let n = xs.len();
+        let pts: Vec<DVec3> = (0..2 * n.pow(3))
+            .map(|i| DVec3::new(xs[i % n], xs[i / n % n], xs[i / (n * n) % n]))
             .collect();
         let rank = lex_ranks(&pts);
         for (i, &a) in pts.iter().enumerate() {
