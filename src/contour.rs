@@ -551,7 +551,7 @@ pub fn run(
     count("unknown_dropped", unknown);
     count("points", data.mesh.points.len());
     count("duplicates_merged", data.mesh.duplicates_merged);
-    count("tets", data.mesh.tets.len());
+    count("tets", data.mesh.tet_count());
     let active = shells.iter().map(|s| s.counts.active_tets).max();
     count("active_tets", active.unwrap_or(0));
     count("bodies", shells.iter().map(|s| s.bodies.len()).sum());

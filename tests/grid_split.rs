@@ -7,7 +7,7 @@ use wellmesh::grid::{CubeSplit, GridVolume, tetrahedralize, tetrahedralize_with_
 use wellmesh::tet::{NO_NEIGHBOUR, TetMesh};
 
 fn signed_volume(mesh: &TetMesh, t: usize) -> f64 {
-    let [a, b, c, d] = mesh.tets[t].map(|v| mesh.points[v as usize]);
+    let [a, b, c, d] = mesh.tet(t).map(|v| mesh.points[v as usize]);
     (b - a).dot((c - a).cross(d - a)) / 6.0
 }
 
@@ -20,24 +20,23 @@ fn sorted_face(tet: &[u32; 4], j: usize) -> [u32; 3] {
 /// Checks the `TetMesh` contract independently of how the mesh was built; returns the
 /// number of boundary faces.
 fn assert_valid_mesh(mesh: &TetMesh) -> usize {
-    assert_eq!(mesh.neighbours.len(), mesh.tets.len());
     assert_eq!(
         mesh.vertex_of_input,
         (0..mesh.points.len() as u32).collect::<Vec<_>>()
     );
     let mut uses: HashMap<[u32; 3], usize> = HashMap::new();
-    for (t, tet) in mesh.tets.iter().enumerate() {
+    for (t, tet) in mesh.tets().enumerate() {
         assert!(signed_volume(mesh, t) > 0.0, "tet {t} {tet:?} not positive");
         for j in 0..4 {
-            *uses.entry(sorted_face(tet, j)).or_default() += 1;
-            let n = mesh.neighbours[t][j];
+            *uses.entry(sorted_face(&tet, j)).or_default() += 1;
+            let n = mesh.neighbours(t)[j];
             if n == NO_NEIGHBOUR {
                 continue;
             }
             let (t2, j2) = ((n / 4) as usize, (n % 4) as usize);
             assert_ne!(t2, t);
-            assert_eq!(mesh.neighbours[t2][j2], (t * 4 + j) as u32, "not symmetric");
-            assert_eq!(sorted_face(&mesh.tets[t2], j2), sorted_face(tet, j));
+            assert_eq!(mesh.neighbours(t2)[j2], (t * 4 + j) as u32, "not symmetric");
+            assert_eq!(sorted_face(&mesh.tet(t2), j2), sorted_face(&tet, j));
         }
     }
     assert!(
@@ -45,11 +44,9 @@ fn assert_valid_mesh(mesh: &TetMesh) -> usize {
         "a face in 3+ tets"
     );
     let boundary = uses.values().filter(|n| **n == 1).count();
-    let marked_boundary = mesh
-        .neighbours
-        .iter()
-        .flatten()
-        .filter(|n| **n == NO_NEIGHBOUR)
+    let marked_boundary = (0..mesh.tet_count())
+        .flat_map(|t| mesh.neighbours(t))
+        .filter(|&n| n == NO_NEIGHBOUR)
         .count();
     assert_eq!(
         boundary, marked_boundary,
@@ -59,7 +56,7 @@ fn assert_valid_mesh(mesh: &TetMesh) -> usize {
 }
 
 fn total_volume(mesh: &TetMesh) -> f64 {
-    (0..mesh.tets.len()).map(|t| signed_volume(mesh, t)).sum()
+    (0..mesh.tet_count()).map(|t| signed_volume(mesh, t)).sum()
 }
 
 fn ramp(dims: [usize; 3]) -> Vec<f64> {
@@ -78,7 +75,7 @@ fn both_splits_conform_and_fill_the_box() {
     let quads = 2 * (3 * 2 + 2 * 4 + 3 * 4);
     for split in [CubeSplit::Five, CubeSplit::Six] {
         let (mesh, report) = tetrahedralize_with_report(&grid, split).unwrap();
-        assert_eq!(mesh.tets.len(), cells * split.tets_per_cell(), "{split}");
+        assert_eq!(mesh.tet_count(), cells * split.tets_per_cell(), "{split}");
         assert_eq!(report.degenerate_tets + report.blanked_tets, 0);
         let boundary = assert_valid_mesh(&mesh);
         assert_eq!(boundary, 2 * quads, "{split}: boundary quads split in two");
@@ -88,14 +85,14 @@ fn both_splits_conform_and_fill_the_box() {
         // Boundary faces are exactly the faces on the box's six planes.
         let lo = grid.points[0];
         let hi = grid.points[grid.len() - 1];
-        for (t, tet) in mesh.tets.iter().enumerate() {
+        for (t, tet) in mesh.tets().enumerate() {
             for j in 0..4 {
-                let face = sorted_face(tet, j).map(|v| mesh.points[v as usize]);
+                let face = sorted_face(&tet, j).map(|v| mesh.points[v as usize]);
                 let on_plane = (0..3).any(|axis| {
                     face.iter().all(|p| p[axis] == lo[axis])
                         || face.iter().all(|p| p[axis] == hi[axis])
                 });
-                assert_eq!(on_plane, mesh.neighbours[t][j] == NO_NEIGHBOUR);
+                assert_eq!(on_plane, mesh.neighbours(t)[j] == NO_NEIGHBOUR);
             }
         }
     }
@@ -149,7 +146,7 @@ fn left_handed_grid_is_reoriented() {
     let grid = GridVolume::lattice("lh", dims, DVec3::ZERO, axes, ramp(dims)).unwrap();
     for split in [CubeSplit::Five, CubeSplit::Six] {
         let (mesh, report) = tetrahedralize_with_report(&grid, split).unwrap();
-        assert_eq!(report.flipped_tets, mesh.tets.len());
+        assert_eq!(report.flipped_tets, mesh.tet_count());
         assert_valid_mesh(&mesh);
         assert!((total_volume(&mesh) - 2.0 * 2.0 * 4.0).abs() < 1e-9);
     }
@@ -178,10 +175,10 @@ fn collapsed_cells_and_blanked_points_are_left_out_and_reported() {
     );
     assert!(report.blanked_tets > 0);
     assert_eq!(
-        mesh.tets.len() + report.degenerate_tets + report.blanked_tets,
+        mesh.tet_count() + report.degenerate_tets + report.blanked_tets,
         8 * 6
     );
-    assert!(mesh.tets.iter().all(|t| !t.contains(&26)));
+    assert!(mesh.tets().all(|t| !t.contains(&26)));
     assert_valid_mesh(&mesh);
 }
 

@@ -23,8 +23,7 @@ fn split_and_contour(name: &str, grid: &GridVolume, threshold: f64) {
         let (mesh, report) = tetrahedralize_with_report(grid, split).unwrap();
         let split_s = t0.elapsed().as_secs_f64();
         let mesh_volume: f64 = mesh
-            .tets
-            .iter()
+            .tets()
             .map(|t| {
                 let [a, b, c, d] = t.map(|v| mesh.points[v as usize]);
                 (b - a).dot((c - a).cross(d - a)) / 6.0

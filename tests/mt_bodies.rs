@@ -55,7 +55,7 @@ fn assert_closed_and_oriented(body: &Body) {
 fn brute_force_counts(mesh: &TetMesh, values: &[f64], threshold: f64) -> (usize, usize) {
     let mut edges = HashSet::new();
     let mut active = 0;
-    for tet in &mesh.tets {
+    for tet in mesh.tets() {
         let marked = tet.map(|v| values[v as usize] >= threshold);
         if marked.iter().any(|m| *m) && !marked.iter().all(|m| *m) {
             active += 1;
@@ -311,8 +311,7 @@ fn blanked_points_leave_a_hole_that_is_capped_like_the_hull() {
     for split in SPLITS {
         let mesh = tetrahedralize(&grid, split).unwrap();
         let kept_volume: f64 = mesh
-            .tets
-            .iter()
+            .tets()
             .map(|t| {
                 let [a, b, c, d] = t.map(|v| mesh.points[v as usize]);
                 (b - a).dot((c - a).cross(d - a)) / 6.0

@@ -44,7 +44,7 @@ fn well_lattice(wells: usize, samples: usize, origin: DVec3) -> Vec<DVec3> {
 }
 
 fn volume_m3(mesh: &TetMesh) -> f64 {
-    (0..mesh.tets.len()).map(|t| mesh.signed_volume(t)).sum()
+    (0..mesh.tet_count()).map(|t| mesh.signed_volume(t)).sum()
 }
 
 fn orient(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
@@ -103,8 +103,7 @@ fn brute_force_delaunay_count(pts: &[DVec3]) -> usize {
 /// The tetrahedra as sets of corner coordinates relative to `origin`, in millimetres
 /// (vertex numbering is the construction's own; geometry is what callers rely on).
 fn tet_set(mesh: &TetMesh, origin: DVec3) -> BTreeSet<[[i64; 3]; 4]> {
-    mesh.tets
-        .iter()
+    mesh.tets()
         .map(|t| {
             let mut s = t.map(|v| {
                 let p = (mesh.points[v as usize] - origin) * 1000.0;
@@ -127,7 +126,7 @@ fn random_points_give_a_valid_delaunay_mesh_filling_the_hull() {
         assert_eq!(mesh.points[v as usize], pts[i]);
     }
     // Uniform random points have about 6.7 tetrahedra per point.
-    assert!(mesh.tets.len() > 5 * 3000, "{}", mesh.tets.len());
+    assert!(mesh.tet_count() > 5 * 3000, "{}", mesh.tet_count());
 }
 
 #[test]
@@ -137,7 +136,7 @@ fn exact_well_lattice_is_valid_and_fills_its_box() {
     mesh.validate().unwrap();
     let box_m3 = 200.0 * 200.0 * 29.0;
     assert!((volume_m3(&mesh) - box_m3).abs() < 1e-6 * box_m3);
-    for t in 0..mesh.tets.len() {
+    for t in 0..mesh.tet_count() {
         assert!(mesh.signed_volume(t) > 0.0, "flat tetrahedron {t}");
     }
 }
@@ -149,7 +148,7 @@ fn lattice_at_utm_coordinates_gives_the_same_tetrahedra_as_at_the_origin() {
     let utm_pts = well_lattice(5, 30, offset);
     let utm = delaunay(&utm_pts, &NoProgress).unwrap();
     utm.validate().unwrap();
-    assert_eq!(local.tets.len(), utm.tets.len());
+    assert_eq!(local.tet_count(), utm.tet_count());
     assert_eq!(tet_set(&local, DVec3::ZERO), tet_set(&utm, offset));
     for (i, &v) in utm.vertex_of_input.iter().enumerate() {
         assert_eq!(utm.points[v as usize], utm_pts[i], "caller's coordinates");
@@ -162,7 +161,7 @@ fn large_sets_built_in_parallel_zones_are_exact_and_independent_of_the_origin() 
     let pts = random_points(100_000, 11);
     let mesh = delaunay(&pts, &NoProgress).unwrap();
     mesh.validate().unwrap();
-    assert!(mesh.tets.len() > 6 * 100_000, "{}", mesh.tets.len());
+    assert!(mesh.tet_count() > 6 * 100_000, "{}", mesh.tet_count());
     let local = delaunay(&well_lattice(24, 100, DVec3::ZERO), &NoProgress).unwrap();
     local.validate().unwrap();
     let box_m3 = 1150.0 * 1150.0 * 99.0;
@@ -300,7 +299,7 @@ fn small_general_position_sets_match_a_brute_force_delaunay() {
         let mesh = delaunay(&pts, &NoProgress).unwrap();
         mesh.validate().unwrap();
         assert_eq!(
-            mesh.tets.len(),
+            mesh.tet_count(),
             brute_force_delaunay_count(&pts),
             "seed {seed}"
         );
@@ -313,13 +312,14 @@ fn small_general_position_sets_match_a_brute_force_delaunay() {
 fn validate_catches_a_flipped_tetrahedron_and_a_broken_link() {
     let mesh = delaunay(&random_points(100, 5), &NoProgress).unwrap();
     let mut flipped = mesh.clone();
-    flipped.tets[3].swap(0, 1);
+    let [a, b, c, d] = mesh.tet(3);
+    flipped.set_tet(3, [b, a, c, d]);
     assert!(flipped.validate().is_err());
     let mut unlinked = mesh.clone();
-    let t = (0..mesh.tets.len())
-        .find(|&t| mesh.neighbours[t][0] != wellmesh::tet::NO_NEIGHBOUR)
+    let t = (0..mesh.tet_count())
+        .find(|&t| mesh.neighbours(t)[0] != wellmesh::tet::NO_NEIGHBOUR)
         .unwrap();
-    unlinked.neighbours[t][0] = wellmesh::tet::NO_NEIGHBOUR;
+    unlinked.set_neighbour(t, 0, wellmesh::tet::NO_NEIGHBOUR);
     assert!(unlinked.validate().is_err());
 }
 
@@ -385,7 +385,7 @@ proptest! {
             Ok(mesh) => {
                 prop_assert!(mesh.validate().is_ok(), "{:?}", mesh.validate());
                 prop_assert_eq!(mesh.vertex_of_input.len(), pts.len());
-                for t in 0..mesh.tets.len() {
+                for t in 0..mesh.tet_count() {
                     prop_assert!(mesh.signed_volume(t) > 0.0);
                 }
             }
@@ -402,6 +402,6 @@ proptest! {
         let mesh = delaunay(&pts, &NoProgress).unwrap();
         let hull = brute_force_hull_volume(&pts);
         prop_assert!((volume_m3(&mesh) - hull).abs() <= 1e-9 * hull, "{} vs {}", volume_m3(&mesh), hull);
-        prop_assert_eq!(mesh.tets.len(), brute_force_delaunay_count(&pts));
+        prop_assert_eq!(mesh.tet_count(), brute_force_delaunay_count(&pts));
     }
 }

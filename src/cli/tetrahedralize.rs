@@ -41,14 +41,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             "points": n_points,
             "distinct_points": mesh.points.len(),
             "duplicates_merged": mesh.duplicates_merged,
-            "tets": mesh.tets.len(),
+            "tets": mesh.tet_count(),
             "seconds": seconds,
         });
         println!("{summary}");
     } else {
         println!(
             "points {n_points} tets {} seconds {seconds:.3}",
-            mesh.tets.len()
+            mesh.tet_count()
         );
     }
     Ok(ExitCode::SUCCESS)

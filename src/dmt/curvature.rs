@@ -198,7 +198,7 @@ pub fn optimize(
         let VertexRole::Tet { tet } = topo.roles[v] else {
             unreachable!("DMT vertices come first")
         };
-        mesh.tets[tet as usize].map(|p| mesh.points[p as usize])
+        mesh.tet(tet as usize).map(|p| mesh.points[p as usize])
     };
     let scale = mesh
         .points

@@ -26,8 +26,8 @@ struct Incidence {
 fn incidence(mesh: &TetMesh) -> Incidence {
     let n = mesh.points.len();
     let mut start = vec![0u32; n + 1];
-    for tv in &mesh.tets {
-        for &v in tv {
+    for tv in mesh.tets() {
+        for v in tv {
             start[v as usize + 1] += 1;
         }
     }
@@ -36,8 +36,8 @@ fn incidence(mesh: &TetMesh) -> Incidence {
     }
     let mut fill = start.clone();
     let mut tets = vec![0u32; start[n] as usize];
-    for (t, tv) in mesh.tets.iter().enumerate() {
-        for &v in tv {
+    for (t, tv) in mesh.tets().enumerate() {
+        for v in tv {
             tets[fill[v as usize] as usize] = t as u32;
             fill[v as usize] += 1;
         }
@@ -74,17 +74,17 @@ pub fn signed_class_distance(mesh: &TetMesh, marked: &[bool]) -> Vec<f64> {
         }
     };
     let mut remaining = 0usize;
-    for tv in &mesh.tets {
+    for tv in mesh.tets() {
         let m = tv.iter().filter(|&&v| marked[v as usize]).count();
         if m == 0 || m == 4 {
             continue;
         }
-        for &a in tv {
+        for a in tv {
             if !needed[a as usize] {
                 needed[a as usize] = true;
                 remaining += 1;
             }
-            for &b in tv {
+            for b in tv {
                 if marked[a as usize] != marked[b as usize] {
                     offer(a, b, &mut dist, &mut seed, &mut heap);
                 }
@@ -106,7 +106,7 @@ pub fn signed_class_distance(mesh: &TetMesh, marked: &[bool]) -> Vec<f64> {
         }
         let s = seed[v as usize];
         for &t in &inc.tets[inc.start[v as usize] as usize..inc.start[v as usize + 1] as usize] {
-            for &w in &mesh.tets[t as usize] {
+            for &w in &mesh.tet(t as usize) {
                 if w != v && !settled[w as usize] && marked[w as usize] == marked[v as usize] {
                     offer(w, s, &mut dist, &mut seed, &mut heap);
                 }
@@ -315,7 +315,7 @@ pub fn place_balanced(
         .unwrap_or(0);
     // The region of each surface vertex and of each polygon.
     let tet_region = |t: u32| -> u32 {
-        let tv = mesh.tets[t as usize];
+        let tv = mesh.tet(t as usize);
         let v = tv
             .iter()
             .copied()
@@ -377,7 +377,7 @@ pub fn place_balanced(
                 let VertexRole::Tet { tet } = *role else {
                     unreachable!("the first vertices are DMT vertices")
                 };
-                let tv = mesh.tets[tet as usize];
+                let tv = mesh.tet(tet as usize);
                 let corners = SortedCorners::new(
                     tv.map(|v| mesh.points[v as usize]),
                     tv.map(|v| value(v, r)),
@@ -427,7 +427,8 @@ pub fn place_balanced(
             let VertexRole::Tet { tet } = *role else {
                 unreachable!("the first vertices are DMT vertices")
             };
-            mesh.tets[tet as usize].map(|v| balanced(field[v as usize], alpha[r as usize]))
+            mesh.tet(tet as usize)
+                .map(|v| balanced(field[v as usize], alpha[r as usize]))
         })
         .collect();
     Balanced {

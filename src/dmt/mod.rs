@@ -551,7 +551,7 @@ fn place_vertices(
             let VertexRole::Tet { tet } = *role else {
                 unreachable!("the first vertices are DMT vertices")
             };
-            let tv = mesh.tets[tet as usize];
+            let tv = mesh.tet(tet as usize);
             let corners = SortedCorners::new(
                 tv.map(|v| mesh.points[v as usize]),
                 tv.map(|v| values[v as usize]),

@@ -124,15 +124,14 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
 
     // Active tetrahedra, then active edges, canonical (min, max), sorted: vertex n is edge n.
     let active_tets: Vec<u32> = mesh
-        .tets
-        .par_iter()
+        .par_tets()
         .enumerate()
         .filter(|(_, tet)| !matches!(mask_of(tet), 0 | 15))
         .map(|(t, _)| t as u32)
         .collect();
     let mut edges: Vec<(u32, u32)> = Vec::with_capacity(active_tets.len() * 3);
     for &t in &active_tets {
-        let tet = &mesh.tets[t as usize];
+        let tet = &mesh.tet(t as usize);
         let mask = mask_of(tet);
         for a in 0..4 {
             for b in a + 1..4 {
@@ -169,7 +168,7 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
     // One face per active tetrahedron, oriented from marked to unmarked.
     let mut faces = Vec::with_capacity(active_tets.len());
     for &t in &active_tets {
-        let tet = &mesh.tets[t as usize];
+        let tet = &mesh.tet(t as usize);
         let mask = mask_of(tet);
         let e = |a: usize, b: usize| edge_vertex(tet[a], tet[b]);
         let inside: Vec<usize> = (0..4).filter(|c| mask >> c & 1 == 1).collect();
@@ -228,12 +227,10 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
     };
 
     // Hull faces with a marked corner, in tetrahedron order.
-    let hull_faces: Vec<(u32, u8)> = mesh
-        .tets
-        .par_iter()
-        .zip(mesh.neighbours.par_iter())
-        .enumerate()
-        .flat_map_iter(|(t, (tet, neighbours))| {
+    let hull_faces: Vec<(u32, u8)> = (0..mesh.tet_count())
+        .into_par_iter()
+        .flat_map_iter(|t| {
+            let (tet, neighbours) = (mesh.tet(t), mesh.neighbours(t));
             (0..4).filter_map(move |j| {
                 let on_hull = neighbours[j] == NO_NEIGHBOUR;
                 let any_marked = OUTWARD_FACES[j].iter().any(|c| marked(tet[*c]));
@@ -243,7 +240,7 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
         .collect();
     let face_vertices = |f: usize| -> [u32; 3] {
         let (t, j) = hull_faces[f];
-        OUTWARD_FACES[j as usize].map(|c| mesh.tets[t as usize][c])
+        OUTWARD_FACES[j as usize].map(|c| mesh.tet(t as usize)[c])
     };
     let mut positions = surface.vertices.clone();
     let sheets = HullSheets::new(
@@ -260,7 +257,7 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
     let mut triangles = Vec::with_capacity(surface.faces.len() * 2);
     let mut labels = Vec::with_capacity(surface.faces.len() * 2);
     for (face, &t) in surface.faces.iter().zip(&surface.face_tets) {
-        let label = region_of_tet(&mesh.tets[t as usize]);
+        let label = region_of_tet(&mesh.tet(t as usize));
         let split = match *face {
             MtFace::Triangle(v) => vec![v],
             MtFace::Quad(q) => split_quad(&surface.vertices, q).to_vec(),
@@ -274,7 +271,7 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
 
     // Close at the hull: the marked part of every hull triangle, outward.
     for (f, &(t, _)) in hull_faces.iter().enumerate() {
-        let tet = &mesh.tets[t as usize];
+        let tet = &mesh.tet(t as usize);
         let face = face_vertices(f);
         let mut polygon: Vec<u32> = Vec::with_capacity(4);
         for n in 0..3 {
@@ -366,8 +363,8 @@ impl HullSheets {
                 let (mut t, mut k) = hull_faces[start as usize];
                 let mut arc = Vec::new();
                 let mut end = None;
-                for _ in 0..=mesh.tets.len() {
-                    let tet = mesh.tets[t as usize];
+                for _ in 0..=mesh.tet_count() {
+                    let tet = mesh.tet(t as usize);
                     arc.push(t);
                     let entered = tet[k as usize];
                     let Some(exit) = (0..4).find(|&c| {
@@ -376,7 +373,7 @@ impl HullSheets {
                     }) else {
                         break;
                     };
-                    let next = mesh.neighbours[t as usize][exit];
+                    let next = mesh.neighbours(t as usize)[exit];
                     if next == NO_NEIGHBOUR {
                         end = index.get(&(t, exit as u8)).copied();
                         break;
@@ -569,9 +566,9 @@ pub fn marked_regions(mesh: &TetMesh, marked: &[bool]) -> Vec<u32> {
         }
         v
     }
-    for tet in &mesh.tets {
+    for tet in mesh.tets() {
         let mut first = None;
-        for &v in tet {
+        for v in tet {
             if !marked[v as usize] {
                 continue;
             }
@@ -587,9 +584,9 @@ pub fn marked_regions(mesh: &TetMesh, marked: &[bool]) -> Vec<u32> {
         }
     }
     let mut used = vec![false; mesh.points.len()];
-    for tet in &mesh.tets {
+    for tet in mesh.tets() {
         for v in tet {
-            used[*v as usize] = true;
+            used[v as usize] = true;
         }
     }
     // Compact ids, numbered in the order of each region's first vertex.
@@ -625,66 +622,70 @@ pub fn region_volumes(mesh: &TetMesh, values: &[f64], threshold: f64, regions: &
     };
     // Fixed chunks summed in order: the result does not depend on the thread count or on
     // scheduling (at most about 4M partial sums in flight).
-    let chunks = (4_000_000 / len.max(1)).clamp(1, mesh.tets.len().div_ceil(4096).max(1));
-    let chunk = mesh.tets.len().div_ceil(chunks).max(1);
-    let partial: Vec<Vec<f64>> = mesh
-        .tets
-        .par_chunks(chunk)
-        .map(|tets| {
-            tets.iter().fold(vec![0.0; len], |mut acc, tet| {
-                let marked = tet.map(|v| values[v as usize] >= threshold);
-                let m = marked.iter().filter(|&&x| x).count();
-                if m == 0 {
-                    return acc;
-                }
-                let p = tet.map(|v| mesh.points[v as usize]);
-                let f = tet.map(|v| values[v as usize]);
-                // The crossing on edge i -> j (i marked, j not).
-                let cross = |i: usize, j: usize| {
-                    let t = ((f[i] - threshold) / (f[i] - f[j])).clamp(0.0, 1.0);
-                    p[i] + (p[j] - p[i]) * t
-                };
-                // The marked corners first, then the others.
-                let mut order = [0usize; 4];
-                let (mut lo, mut hi) = (0, 4);
-                for (i, &mk) in marked.iter().enumerate() {
-                    if mk {
-                        order[lo] = i;
-                        lo += 1;
-                    } else {
-                        hi -= 1;
-                        order[hi] = i;
+    let chunks = (4_000_000 / len.max(1)).clamp(1, mesh.tet_count().div_ceil(4096).max(1));
+    let chunk = mesh.tet_count().div_ceil(chunks).max(1);
+    let partial: Vec<Vec<f64>> = (0..mesh.tet_count().div_ceil(chunk))
+        .into_par_iter()
+        .map(|c| {
+            let tets = c * chunk..((c + 1) * chunk).min(mesh.tet_count());
+            tets.map(|t| mesh.tet(t))
+                .fold(vec![0.0; len], |mut acc, tet| {
+                    let marked = tet.map(|v| values[v as usize] >= threshold);
+                    let m = marked.iter().filter(|&&x| x).count();
+                    if m == 0 {
+                        return acc;
                     }
-                }
-                let (inside, outside) = order.split_at(m);
-                let whole = cone(p[0], p[1], p[2], p[3]);
-                let volume = match m {
-                    4 => whole,
-                    1 => {
-                        let a = inside[0];
-                        let [b, c, d] = [outside[0], outside[1], outside[2]];
-                        cone(p[a], cross(a, b), cross(a, c), cross(a, d))
+                    let p = tet.map(|v| mesh.points[v as usize]);
+                    let f = tet.map(|v| values[v as usize]);
+                    // The crossing on edge i -> j (i marked, j not).
+                    let cross = |i: usize, j: usize| {
+                        let t = ((f[i] - threshold) / (f[i] - f[j])).clamp(0.0, 1.0);
+                        p[i] + (p[j] - p[i]) * t
+                    };
+                    // The marked corners first, then the others.
+                    let mut order = [0usize; 4];
+                    let (mut lo, mut hi) = (0, 4);
+                    for (i, &mk) in marked.iter().enumerate() {
+                        if mk {
+                            order[lo] = i;
+                            lo += 1;
+                        } else {
+                            hi -= 1;
+                            order[hi] = i;
+                        }
                     }
-                    3 => {
-                        let d = outside[0];
-                        let [a, b, c] = [inside[0], inside[1], inside[2]];
-                        whole - cone(p[d], cross(a, d), cross(b, d), cross(c, d))
+                    let (inside, outside) = order.split_at(m);
+                    let whole = cone(p[0], p[1], p[2], p[3]);
+                    let volume = match m {
+                        4 => whole,
+                        1 => {
+                            let a = inside[0];
+                            let [b, c, d] = [outside[0], outside[1], outside[2]];
+                            cone(p[a], cross(a, b), cross(a, c), cross(a, d))
+                        }
+                        3 => {
+                            let d = outside[0];
+                            let [a, b, c] = [inside[0], inside[1], inside[2]];
+                            whole - cone(p[d], cross(a, d), cross(b, d), cross(c, d))
+                        }
+                        _ => {
+                            let [a, b] = [inside[0], inside[1]];
+                            let [c, d] = [outside[0], outside[1]];
+                            let (ac, ad, bc, bd) =
+                                (cross(a, c), cross(a, d), cross(b, c), cross(b, d));
+                            // Faces away from `a`: the triangle (b, bc, bd) on face bcd and the
+                            // planar quad (ac, ad, bd, bc) of the cut.
+                            cone(p[a], p[b], bc, bd)
+                                + cone(p[a], ac, ad, bd)
+                                + cone(p[a], ac, bd, bc)
+                        }
+                    };
+                    let r = regions[tet[inside[0]] as usize];
+                    if r != NO_REGION {
+                        acc[r as usize] += volume;
                     }
-                    _ => {
-                        let [a, b] = [inside[0], inside[1]];
-                        let [c, d] = [outside[0], outside[1]];
-                        let (ac, ad, bc, bd) = (cross(a, c), cross(a, d), cross(b, c), cross(b, d));
-                        // Faces away from `a`: the triangle (b, bc, bd) on face bcd and the
-                        // planar quad (ac, ad, bd, bc) of the cut.
-                        cone(p[a], p[b], bc, bd) + cone(p[a], ac, ad, bd) + cone(p[a], ac, bd, bc)
-                    }
-                };
-                let r = regions[tet[inside[0]] as usize];
-                if r != NO_REGION {
-                    acc[r as usize] += volume;
-                }
-                acc
-            })
+                    acc
+                })
         })
         .collect();
     partial.into_iter().fold(vec![0.0; len], |mut a, b| {
@@ -790,13 +791,13 @@ mod tests {
     use super::*;
 
     fn single_tet() -> TetMesh {
-        TetMesh {
-            points: vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z],
-            tets: vec![[0, 1, 2, 3]],
-            neighbours: vec![[NO_NEIGHBOUR; 4]],
-            vertex_of_input: vec![0, 1, 2, 3],
-            duplicates_merged: 0,
-        }
+        TetMesh::from_parts(
+            vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z],
+            vec![[0, 1, 2, 3]],
+            vec![[NO_NEIGHBOUR; 4]],
+            vec![0, 1, 2, 3],
+            0,
+        )
     }
 
     fn newell(positions: &[DVec3], face: &[u32]) -> DVec3 {

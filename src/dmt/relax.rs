@@ -106,7 +106,7 @@ pub fn corners(topo: &Topology, mesh: &TetMesh, field: &[f64], v: usize) -> Sort
     let VertexRole::Tet { tet } = topo.roles[v] else {
         unreachable!("DMT vertices come first")
     };
-    let tv = mesh.tets[tet as usize];
+    let tv = mesh.tet(tet as usize);
     SortedCorners::new(
         tv.map(|p| mesh.points[p as usize]),
         tv.map(|p| field[p as usize]),

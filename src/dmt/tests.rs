@@ -57,13 +57,7 @@ pub(crate) fn grid_mesh(n: usize, lo: f64, hi: f64) -> TetMesh {
         }
     }
     let count = points.len();
-    TetMesh {
-        points,
-        tets,
-        neighbours,
-        vertex_of_input: (0..count as u32).collect(),
-        duplicates_merged: 0,
-    }
+    TetMesh::from_parts(points, tets, neighbours, (0..count as u32).collect(), 0)
 }
 
 fn sphere_values(mesh: &TetMesh, centre: DVec3, r: f64) -> Vec<f64> {
@@ -221,7 +215,8 @@ fn every_interior_dmt_vertex_has_valence_three_or_four() {
     }
     for (v, role) in topo.roles.iter().enumerate() {
         if let extract::VertexRole::Tet { tet } = role {
-            let m = mesh.tets[*tet as usize]
+            let m = mesh
+                .tet(*tet as usize)
                 .iter()
                 .filter(|&&p| marked[p as usize])
                 .count();
@@ -266,7 +261,7 @@ fn bad_values_are_rejected() {
 fn timing_on_a_large_grid() {
     let mesh = grid_mesh(104, -1.0, 1.0);
     let values = sphere_values(&mesh, DVec3::new(0.01, 0.02, 0.03), 0.8);
-    eprintln!("tets {}", mesh.tets.len());
+    eprintln!("tets {}", mesh.tet_count());
     for placement in all_placements() {
         let t0 = std::time::Instant::now();
         let shell = extract_shell(

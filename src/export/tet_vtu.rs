@@ -24,7 +24,7 @@ pub fn write_tet_vtu_file(mesh: &TetMesh, path: &Path) -> io::Result<()> {
 /// Writes `mesh` as a `.vtu` document to `out`.
 pub fn write_tet_vtu<W: Write>(mesh: &TetMesh, out: &mut W) -> io::Result<()> {
     let n_points = mesh.points.len();
-    let n_tets = mesh.tets.len();
+    let n_tets = mesh.tet_count();
     // 32-bit indices when they fit (half the file), 64-bit otherwise.
     let wide = n_points > i32::MAX as usize || n_tets.saturating_mul(4) > i32::MAX as usize;
     let int_type = if wide { "Int64" } else { "Int32" };
@@ -64,8 +64,8 @@ pub fn write_tet_vtu<W: Write>(mesh: &TetMesh, out: &mut W) -> io::Result<()> {
     {
         let mut enc = Base64::new(&mut *out);
         enc.write_all(&((n_tets * 4 * int_bytes) as u64).to_le_bytes())?;
-        for t in &mesh.tets {
-            for &v in t {
+        for t in mesh.tets() {
+            for v in t {
                 write_int(&mut enc, u64::from(v), wide)?;
             }
         }

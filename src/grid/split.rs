@@ -147,13 +147,13 @@ pub fn tetrahedralize_with_report(
         .flatten()
         .filter(|n| **n == NO_NEIGHBOUR)
         .count();
-    let mesh = TetMesh {
-        points: grid.points.clone(),
-        vertex_of_input: (0..grid.points.len() as u32).collect(),
+    let mesh = TetMesh::from_parts(
+        grid.points.clone(),
         tets,
         neighbours,
-        duplicates_merged: 0,
-    };
+        (0..grid.points.len() as u32).collect(),
+        0,
+    );
     Ok((mesh, report))
 }
 
@@ -487,8 +487,10 @@ mod tests {
                     GridVolume::curvilinear("g", dims, points, vec![0.0; n], blanked).unwrap();
                 let (mesh, _) = tetrahedralize_with_report(&grid, split).unwrap();
                 assert_eq!(
-                    mesh.neighbours,
-                    face_adjacency(&mesh.tets),
+                    (0..mesh.tet_count())
+                        .map(|t| mesh.neighbours(t))
+                        .collect::<Vec<_>>(),
+                    face_adjacency(&mesh.tets().collect::<Vec<_>>()),
                     "{split} seed {seed}"
                 );
             }

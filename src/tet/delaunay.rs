@@ -17,7 +17,7 @@ use std::sync::atomic::Ordering::Relaxed;
 use super::exact_int::Grid;
 use super::predicates::{self, Sign};
 use super::sort::{InsertionOrder, insertion_order, lex_ranks};
-use super::{FACE_OUTWARD, NO_NEIGHBOUR, TetError, TetMesh};
+use super::{Cell, FACE_OUTWARD, NO_NEIGHBOUR, TetError, TetMesh};
 use crate::progress::Progress;
 
 /// The vertex at infinity of ghost tetrahedra (never in a finished [`TetMesh`]).
@@ -121,14 +121,12 @@ fn build_in_zones(
     for p in &mut points {
         *p += shift;
     }
-    let (tets, neighbours) = built?;
-    Ok(TetMesh {
+    Ok(TetMesh::from_cells(
         points,
-        tets,
-        neighbours,
+        built?,
         vertex_of_input,
         duplicates_merged,
-    })
+    ))
 }
 
 /// A per-axis translation under which every coordinate difference `x - shift` is exact
@@ -154,20 +152,12 @@ fn exact_shift(points: &[DVec3]) -> (DVec3, DVec3) {
     (shift, hi - lo)
 }
 
-/// One tetrahedron during construction: 32 bytes, its vertices and neighbour links side by
-/// side (the cavity search reads both together). Relaxed atomics, so that the workers of a
-/// parallel chunk can share the array without `unsafe`: on x86-64 and AArch64 a relaxed
-/// load or store is an ordinary one, and the zones (see [`Zone`]) keep every cell written
-/// by one worker out of every other worker's reach, so no value is ever raced for.
-#[derive(Debug, bytemuck::Zeroable)]
-#[repr(C, align(16))]
-struct Cell {
-    /// Vertex ids; ghosts have [`INF`] last; `[DEAD, DEAD, ..]` for freed slots, all zero
-    /// for never written ones.
-    v: [AtomicU32; 4],
-    /// `t2 * 4 + j` across the face opposite vertex `i`.
-    n: [AtomicU32; 4],
-}
+// One tetrahedron during construction is a [`Cell`] (32 bytes, its vertices and neighbour
+// links side by side: the cavity search reads both together), the finished mesh's own
+// storage, so the mesh is handed over without a copy. The zones (see [`Zone`]) keep every
+// cell written by one worker out of every other worker's reach, so no value is ever raced
+// for. During construction ghosts have [`INF`] last, freed slots `[DEAD, DEAD, ..]` and
+// never written ones all zero.
 
 impl Cell {
     fn dead() -> Cell {
@@ -1008,7 +998,7 @@ impl<'a> Builder<'a> {
         zones: usize,
         x86_64_v3: bool,
         progress: &dyn Progress,
-    ) -> Result<(Vec<[u32; 4]>, Vec<[u32; 4]>), TetError> {
+    ) -> Result<Vec<Cell>, TetError> {
         let first = initial_simplex(pts)?;
         let grid = Grid::new(pts);
         let lex_rank = if grid.is_some() {
@@ -1319,10 +1309,9 @@ impl<'a> Builder<'a> {
 }
 
 /// Strips ghosts and free slots in place (moving tetrahedra from the end into holes) and
-/// returns the finite tetrahedra with hull faces marked [`NO_NEIGHBOUR`], as the two
-/// arrays of a [`TetMesh`]. The construction array is released from its end while the
-/// outputs fill from theirs, so memory stays near 32 bytes per tetrahedron.
-fn finish(mut cells: Vec<Cell>) -> (Vec<[u32; 4]>, Vec<[u32; 4]>) {
+/// returns the finite tetrahedra, hull faces marked [`NO_NEIGHBOUR`]: the cells of the
+/// [`TetMesh`], in the construction's own array (no copy, no new pages).
+fn finish(mut cells: Vec<Cell>) -> Vec<Cell> {
     // Ghosts removed and the finite tetrahedra counted in one parallel pass: each ghost
     // writes only its own vertex words and the one link of its finite neighbour across
     // its hull face, which no other ghost writes and the count does not read.
@@ -1363,26 +1352,7 @@ fn finish(mut cells: Vec<Cell>) -> (Vec<[u32; 4]>, Vec<[u32; 4]>) {
     }
     cells.truncate(live);
     cells.shrink_to_fit();
-    // Zeroed outputs are not resident until written.
-    let mut tets = vec![[0u32; 4]; live];
-    let mut nbrs = vec![[0u32; 4]; live];
-    const CHUNK: usize = 1 << 14;
-    let mut end = live;
-    while end > 0 {
-        let start = end.saturating_sub(CHUNK);
-        tets[start..end]
-            .par_iter_mut()
-            .zip(nbrs[start..end].par_iter_mut())
-            .zip(cells[start..end].par_iter())
-            .for_each(|((t, n), c)| {
-                *t = c.verts();
-                *n = c.links();
-            });
-        cells.truncate(start);
-        cells.shrink_to_fit();
-        end = start;
-    }
-    (tets, nbrs)
+    cells
 }
 
 /// Four affinely independent vertices, the first ones in insertion order (vertex ids), so
@@ -1447,8 +1417,7 @@ mod tests {
     /// builds whatever their slot order.
     fn tet_set(mesh: &TetMesh) -> Vec<[[u64; 3]; 4]> {
         let mut set: Vec<[[u64; 3]; 4]> = mesh
-            .tets
-            .iter()
+            .tets()
             .map(|t| {
                 let mut c = t.map(|v| mesh.points[v as usize].to_array().map(f64::to_bits));
                 c.sort_unstable();
@@ -1485,7 +1454,7 @@ mod tests {
             })
             .expect("one of ten places inserts the centre late");
         mesh.validate().unwrap();
-        let degree = mesh.tets.iter().filter(|t| t.contains(&id)).count();
+        let degree = mesh.tets().filter(|t| t.contains(&id)).count();
         assert!(
             degree > 2 * STAR_VERTICES,
             "{degree} tetrahedra around the centre"

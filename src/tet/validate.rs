@@ -12,13 +12,6 @@ use super::{FACE_OUTWARD, NO_NEIGHBOUR, TetMesh};
 /// The first defect found, described for a human.
 pub fn validate(mesh: &TetMesh) -> Result<(), String> {
     let n_points = mesh.points.len();
-    if mesh.tets.len() != mesh.neighbours.len() {
-        return Err(format!(
-            "{} tetrahedra but {} neighbour rows",
-            mesh.tets.len(),
-            mesh.neighbours.len()
-        ));
-    }
     if let Some(i) = mesh
         .vertex_of_input
         .iter()
@@ -35,7 +28,7 @@ pub fn validate(mesh: &TetMesh) -> Result<(), String> {
         ));
     }
     let mut used = vec![false; n_points];
-    for (t, tv) in mesh.tets.iter().enumerate() {
+    for (t, tv) in mesh.tets().enumerate() {
         for (i, &v) in tv.iter().enumerate() {
             if v as usize >= n_points {
                 return Err(format!("tetrahedron {t} has vertex {v} out of range"));
@@ -53,17 +46,17 @@ pub fn validate(mesh: &TetMesh) -> Result<(), String> {
     if let Some(v) = used.iter().position(|&u| !u) {
         return Err(format!("vertex {v} is in no tetrahedron"));
     }
-    for t in 0..mesh.tets.len() {
+    for t in 0..mesh.tet_count() {
         for i in 0..4 {
-            let link = mesh.neighbours[t][i];
+            let link = mesh.neighbours(t)[i];
             if link == NO_NEIGHBOUR {
                 continue;
             }
             let (t2, j) = ((link >> 2) as usize, (link & 3) as usize);
-            if t2 >= mesh.tets.len() || t2 == t {
+            if t2 >= mesh.tet_count() || t2 == t {
                 return Err(format!("tetrahedron {t} face {i} links to {link}"));
             }
-            if mesh.neighbours[t2][j] != (t * 4 + i) as u32 {
+            if mesh.neighbours(t2)[j] != (t * 4 + i) as u32 {
                 return Err(format!(
                     "tetrahedron {t} face {i} -> {t2} face {j} is not linked back"
                 ));
@@ -77,7 +70,7 @@ pub fn validate(mesh: &TetMesh) -> Result<(), String> {
                     "tetrahedra {t} and {t2} are linked across different faces"
                 ));
             }
-            let apex = mesh.points[mesh.tets[t2][j] as usize];
+            let apex = mesh.points[mesh.tet(t2)[j] as usize];
             let mut r = mesh.corners(t);
             r[i] = apex;
             if predicates::orient_exact(r[0], r[1], r[2], r[3]) != Sign::Negative {
@@ -88,7 +81,7 @@ pub fn validate(mesh: &TetMesh) -> Result<(), String> {
             if predicates::in_sphere_perturbed(mesh.corners(t), apex) {
                 return Err(format!(
                     "vertex {} is inside the circumsphere of tetrahedron {t} (not Delaunay)",
-                    mesh.tets[t2][j]
+                    mesh.tet(t2)[j]
                 ));
             }
         }
@@ -102,10 +95,10 @@ pub fn validate(mesh: &TetMesh) -> Result<(), String> {
 fn validate_hull(mesh: &TetMesh) -> Result<(), String> {
     let faces: Vec<[u32; 3]> = mesh
         .hull_faces()
-        .map(|(t, i)| FACE_OUTWARD[i].map(|k| mesh.tets[t][k]))
+        .map(|(t, i)| FACE_OUTWARD[i].map(|k| mesh.tet(t)[k]))
         .collect();
     if faces.is_empty() {
-        return if mesh.tets.is_empty() {
+        return if mesh.tet_count() == 0 {
             Ok(())
         } else {
             Err("the mesh has no hull faces".to_string())
