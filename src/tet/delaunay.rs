@@ -17,7 +17,7 @@ use std::sync::atomic::Ordering::Relaxed;
 use super::exact_int::Grid;
 use super::predicates::{self, Sign};
 use super::sort::{InsertionOrder, insertion_order, lex_ranks};
-use super::{Cell, FACE_OUTWARD, NO_NEIGHBOUR, TetError, TetMesh};
+use super::{Cell, FACE_OUTWARD, NO_NEIGHBOUR, TetError, TetMesh, load4};
 use crate::progress::Progress;
 
 /// The vertex at infinity of ghost tetrahedra (never in a finished [`TetMesh`]).
@@ -216,18 +216,6 @@ impl Cell {
         self.v[0].store(DEAD, Relaxed);
         self.v[1].store(DEAD, Relaxed);
     }
-}
-
-/// Four relaxed loads, written out: through `array::map` the compiler left the loads of
-/// the cavity search's neighbours behind a call.
-#[inline(always)]
-fn load4(a: &[AtomicU32; 4]) -> [u32; 4] {
-    [
-        a[0].load(Relaxed),
-        a[1].load(Relaxed),
-        a[2].load(Relaxed),
-        a[3].load(Relaxed),
-    ]
 }
 
 /// Asks the processor to bring `cell` into the cache ahead of its use: the cavity search

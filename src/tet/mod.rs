@@ -71,6 +71,18 @@ impl Cell {
     }
 }
 
+/// Four relaxed loads, written out: through `array::map` the compiler left the loads of
+/// the cavity search's neighbours behind a call.
+#[inline(always)]
+fn load4(a: &[AtomicU32; 4]) -> [u32; 4] {
+    [
+        a[0].load(Relaxed),
+        a[1].load(Relaxed),
+        a[2].load(Relaxed),
+        a[3].load(Relaxed),
+    ]
+}
+
 impl Clone for TetMesh {
     fn clone(&self) -> TetMesh {
         TetMesh {
@@ -220,25 +232,13 @@ impl TetMesh {
     /// Vertex ids of tetrahedron `t` (positively oriented).
     #[inline]
     pub fn tet(&self, t: usize) -> [u32; 4] {
-        let v = &self.cells[t].v;
-        [
-            v[0].load(Relaxed),
-            v[1].load(Relaxed),
-            v[2].load(Relaxed),
-            v[3].load(Relaxed),
-        ]
+        load4(&self.cells[t].v)
     }
 
     /// Neighbour links of tetrahedron `t` (see [`TetMesh`]).
     #[inline]
     pub fn neighbours(&self, t: usize) -> [u32; 4] {
-        let n = &self.cells[t].n;
-        [
-            n[0].load(Relaxed),
-            n[1].load(Relaxed),
-            n[2].load(Relaxed),
-            n[3].load(Relaxed),
-        ]
+        load4(&self.cells[t].n)
     }
 
     /// Vertex ids of every tetrahedron, in order.
