@@ -108,11 +108,9 @@ fn corner_index(tet: &[u32; 4], v: u32) -> usize {
 
 /// Builds the DMT topology of `mesh` classified by `marked` (one flag per mesh vertex).
 pub fn build(mesh: &TetMesh, marked: &[bool]) -> Topology {
-    let tet = |t: usize| mesh.tet(t);
-    let nb = |t: usize| mesh.neighbours(t);
     let tet_count = mesh.tet_count();
     let is_active = |t: usize| {
-        let m = tet(t).iter().filter(|&&v| marked[v as usize]).count();
+        let m = mesh.tet(t).iter().filter(|&&v| marked[v as usize]).count();
         m > 0 && m < 4
     };
     let active: Vec<u32> = (0..tet_count as u32)
@@ -129,7 +127,7 @@ pub fn build(mesh: &TetMesh, marked: &[bool]) -> Topology {
     let mut edges: Vec<(u64, u32)> = active
         .par_iter()
         .flat_map_iter(|&t| {
-            let tv = tet(t as usize);
+            let tv = mesh.tet(t as usize);
             TET_EDGES.iter().filter_map(move |&(i, j)| {
                 let (a, b) = (tv[i], tv[j]);
                 (marked[a as usize] != marked[b as usize]).then(|| (edge_key(a, b), t))
@@ -144,12 +142,12 @@ pub fn build(mesh: &TetMesh, marked: &[bool]) -> Topology {
         .into_par_iter()
         .flat_map_iter(|t| {
             (0..4u32).filter_map(move |i| {
-                (nb(t as usize)[i as usize] == NO_NEIGHBOUR).then_some(t * 4 + i)
+                (mesh.neighbours(t as usize)[i as usize] == NO_NEIGHBOUR).then_some(t * 4 + i)
             })
         })
         .collect();
     let face_corners = |f: u32| -> [u32; 3] {
-        let tv = tet((f / 4) as usize);
+        let tv = mesh.tet((f / 4) as usize);
         FACE_OUTWARD[(f % 4) as usize].map(|i| tv[i])
     };
     let mut face_vertex: HashMap<u32, u32> = HashMap::new();
@@ -195,20 +193,20 @@ pub fn build(mesh: &TetMesh, marked: &[bool]) -> Topology {
             } else {
                 (hi, lo)
             };
-            let (c0, d0) = oriented_around(&tet(start as usize), a, b);
+            let (c0, d0) = oriented_around(&mesh.tet(start as usize), a, b);
             let mut ring = Vec::with_capacity(8);
             // Walk counter-clockwise from `start`; an interior edge closes the ring.
             let (mut t, mut c, mut d) = (start, c0, d0);
             let mut end_face = None;
             loop {
                 ring.push(tet_vertex[t as usize]);
-                let k = corner_index(&tet(t as usize), c);
-                let n = nb(t as usize)[k];
+                let k = corner_index(&mesh.tet(t as usize), c);
+                let n = mesh.neighbours(t as usize)[k];
                 if n == NO_NEIGHBOUR {
                     end_face = Some(t * 4 + k as u32);
                     break;
                 }
-                (t, c, d) = (n / 4, d, tet((n / 4) as usize)[(n % 4) as usize]);
+                (t, c, d) = (n / 4, d, mesh.tet((n / 4) as usize)[(n % 4) as usize]);
                 if t == start {
                     break;
                 }
@@ -220,13 +218,13 @@ pub fn build(mesh: &TetMesh, marked: &[bool]) -> Topology {
                 let mut before = Vec::new();
                 let (mut t, mut c, mut d) = (start, c0, d0);
                 loop {
-                    let l = corner_index(&tet(t as usize), d);
-                    let n = nb(t as usize)[l];
+                    let l = corner_index(&mesh.tet(t as usize), d);
+                    let n = mesh.neighbours(t as usize)[l];
                     if n == NO_NEIGHBOUR {
                         open_start = Some(t * 4 + l as u32);
                         break;
                     }
-                    (t, c, d) = (n / 4, tet((n / 4) as usize)[(n % 4) as usize], c);
+                    (t, c, d) = (n / 4, mesh.tet((n / 4) as usize)[(n % 4) as usize], c);
                     before.push(tet_vertex[t as usize]);
                 }
                 before.reverse();

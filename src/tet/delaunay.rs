@@ -11,7 +11,6 @@ use rayon::prelude::*;
 
 use std::cmp::Ordering;
 use std::ops::Range;
-use std::sync::atomic::AtomicU32;
 use std::sync::atomic::Ordering::Relaxed;
 
 use super::exact_int::Grid;
@@ -161,10 +160,7 @@ fn exact_shift(points: &[DVec3]) -> (DVec3, DVec3) {
 
 impl Cell {
     fn dead() -> Cell {
-        Cell {
-            v: [DEAD; 4].map(AtomicU32::new),
-            n: [NO_NEIGHBOUR; 4].map(AtomicU32::new),
-        }
+        Cell::new([DEAD; 4], [NO_NEIGHBOUR; 4])
     }
 
     #[inline(always)]
@@ -183,25 +179,6 @@ impl Cell {
     fn mark(&self, i: usize, on: bool) {
         let x = self.v[i].load(Relaxed);
         self.v[i].store(if on { x | MARK } else { x & !MARK }, Relaxed);
-    }
-
-    #[inline(always)]
-    fn links(&self) -> [u32; 4] {
-        load4(&self.n)
-    }
-
-    #[inline]
-    fn set_verts(&self, v: [u32; 4]) {
-        for (a, x) in self.v.iter().zip(v) {
-            a.store(x, Relaxed);
-        }
-    }
-
-    #[inline]
-    fn set_links(&self, n: [u32; 4]) {
-        for (a, x) in self.n.iter().zip(n) {
-            a.store(x, Relaxed);
-        }
     }
 
     /// A free slot: freed ([`Cell::kill`]) or never written (all zero).

@@ -69,6 +69,26 @@ impl Cell {
             n: n.map(AtomicU32::new),
         }
     }
+
+    /// The neighbour links.
+    #[inline(always)]
+    fn links(&self) -> [u32; 4] {
+        load4(&self.n)
+    }
+
+    #[inline]
+    fn set_verts(&self, v: [u32; 4]) {
+        for (a, x) in self.v.iter().zip(v) {
+            a.store(x, Relaxed);
+        }
+    }
+
+    #[inline]
+    fn set_links(&self, n: [u32; 4]) {
+        for (a, x) in self.n.iter().zip(n) {
+            a.store(x, Relaxed);
+        }
+    }
 }
 
 /// Four relaxed loads, written out: through `array::map` the compiler left the loads of
@@ -186,13 +206,9 @@ impl TetMesh {
                 .par_iter()
                 .zip(&tets[start..end])
                 .zip(&neighbours[start..end])
-                .for_each(|((c, v), n)| {
-                    for (a, &x) in c.v.iter().zip(v) {
-                        a.store(x, Relaxed);
-                    }
-                    for (a, &x) in c.n.iter().zip(n) {
-                        a.store(x, Relaxed);
-                    }
+                .for_each(|((c, &v), &n)| {
+                    c.set_verts(v);
+                    c.set_links(n);
                 });
             tets.truncate(start);
             tets.shrink_to_fit();
@@ -238,7 +254,7 @@ impl TetMesh {
     /// Neighbour links of tetrahedron `t` (see [`TetMesh`]).
     #[inline]
     pub fn neighbours(&self, t: usize) -> [u32; 4] {
-        load4(&self.cells[t].n)
+        self.cells[t].links()
     }
 
     /// Vertex ids of every tetrahedron, in order.
