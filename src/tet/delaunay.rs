@@ -343,13 +343,12 @@ struct Worker {
     todo: Vec<u32>,
 }
 
-/// The sign of `det()` when it lies beyond the static bound `eps` (none computed when
-/// the bound is unusable, i.e. infinite).
+/// The sign of `det()` when it lies beyond the static bound `eps` (never when the bound
+/// is unusable, i.e. infinite: no finite determinant exceeds it). No test of `eps` first:
+/// a branch between loading the points and the arithmetic made LLVM store the points to
+/// the stack and load them again, on every test.
 #[inline]
 fn beyond(eps: f64, det: impl FnOnce() -> f64) -> Option<Sign> {
-    if !eps.is_finite() {
-        return None;
-    }
     let det = det();
     if det > eps {
         Some(Sign::Positive)
@@ -366,11 +365,14 @@ impl Geometry<'_> {
         self.pts[v as usize]
     }
 
-    /// [`predicates::orient`] of four vertices.
+    /// [`predicates::orient`] of four vertices. `GRID`: look for the integer grid (else
+    /// the float path is taken whatever the point set; exact either way). The insertion is
+    /// compiled once for each, so a point set without a grid runs a kernel with no test
+    /// for one, and LLVM keeps its straight-line hot path in registers.
     #[inline(always)]
-    fn orient(&self, a: u32, b: u32, c: u32, d: u32) -> Sign {
+    fn orient<const GRID: bool>(&self, a: u32, b: u32, c: u32, d: u32) -> Sign {
         let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
-        if let Some(g) = &self.grid {
+        if let (true, Some(g)) = (GRID, &self.grid) {
             // In i64 the exact test costs no more than a filter. Otherwise the static bound,
             // then one cheap per-call bound on the same determinant (what they leave is
             // nearly always an exact zero, which the grid's test answers by construction),
@@ -394,11 +396,11 @@ impl Geometry<'_> {
         predicates::orient_exact(pa, pb, pc, pd)
     }
 
-    /// [`predicates::insphere`] of five vertices.
+    /// [`predicates::insphere`] of five vertices (`GRID` as in [`Geometry::orient`]).
     #[inline(always)]
-    fn insphere(&self, [a, b, c, d]: [u32; 4], e: u32) -> Sign {
+    fn insphere<const GRID: bool>(&self, [a, b, c, d]: [u32; 4], e: u32) -> Sign {
         let (pa, pb, pc, pd, pe) = (self.p(a), self.p(b), self.p(c), self.p(d), self.p(e));
-        match &self.grid {
+        match &self.grid.as_ref().filter(|_| GRID) {
             // On a grid the exact test is integer arithmetic, and what the cheap bound
             // leaves is nearly always an exact tie: no per-axis bound. Not the static
             // bound either: on the 1M well lattice it decides about as often as not, and
@@ -426,8 +428,8 @@ impl Geometry<'_> {
 
     /// [`predicates::in_sphere_perturbed`] of the positive tetrahedron `t` and vertex `q`.
     #[inline(always)]
-    fn in_sphere_perturbed(&self, t: [u32; 4], q: u32) -> bool {
-        match self.insphere(t, q) {
+    fn in_sphere_perturbed<const GRID: bool>(&self, t: [u32; 4], q: u32) -> bool {
+        match self.insphere::<GRID>(t, q) {
             Sign::Positive => true,
             Sign::Negative => false,
             Sign::Zero => self.perturbed_tie(t, q),
@@ -469,7 +471,7 @@ impl Geometry<'_> {
     fn replaced_orient(&self, t: [u32; 4], k: usize, q: u32) -> Option<bool> {
         let mut r = t;
         r[k] = q;
-        match self.orient(r[0], r[1], r[2], r[3]) {
+        match self.orient::<true>(r[0], r[1], r[2], r[3]) {
             Sign::Positive => Some(true),
             Sign::Negative => Some(false),
             Sign::Zero => None,
@@ -505,9 +507,9 @@ impl Geometry<'_> {
     /// perturbed circumsphere, or for a ghost, strictly beyond its hull face or on it
     /// inside the face's circumcircle)?
     #[inline(always)]
-    fn conflict(&self, tv: [u32; 4], v: u32) -> bool {
+    fn conflict<const GRID: bool>(&self, tv: [u32; 4], v: u32) -> bool {
         if tv[3] == INF {
-            match self.orient(tv[0], tv[1], tv[2], v) {
+            match self.orient::<GRID>(tv[0], tv[1], tv[2], v) {
                 Sign::Positive => true,
                 Sign::Negative => false,
                 Sign::Zero => {
@@ -516,7 +518,7 @@ impl Geometry<'_> {
                 }
             }
         } else {
-            self.in_sphere_perturbed(tv, v)
+            self.in_sphere_perturbed::<GRID>(tv, v)
         }
     }
 }
@@ -580,7 +582,13 @@ impl Worker {
     /// strictly beyond. The face the walk came through is not tested again. `None` when
     /// the walk meets a tetrahedron outside `zone`.
     #[inline(always)]
-    fn locate(&mut self, g: &Geometry, cells: &[Cell], q: u32, zone: Zone) -> Option<u32> {
+    fn locate<const GRID: bool>(
+        &mut self,
+        g: &Geometry,
+        cells: &[Cell],
+        q: u32,
+        zone: Zone,
+    ) -> Option<u32> {
         let mut t = self.last;
         if self.star_hint {
             t = self.star_toward(g, cells, q).unwrap_or(t);
@@ -616,7 +624,7 @@ impl Worker {
                 }
                 let mut r = tv;
                 r[f] = q;
-                if g.orient(r[0], r[1], r[2], r[3]) == Sign::Negative {
+                if g.orient::<GRID>(r[0], r[1], r[2], r[3]) == Sign::Negative {
                     let link = cell.n[f].load(Relaxed);
                     t = link >> 2;
                     from = (link & 3) as usize;
@@ -669,14 +677,25 @@ impl Worker {
     /// writing the new tetrahedra over the cavity's slots first. Changes nothing when it
     /// misses (a tetrahedron outside `zone`, or too few slots).
     fn insert(&mut self, g: &Geometry, cells: &[Cell], v: u32, zone: Zone) -> Result<(), Missed> {
+        let grid = g.grid.is_some();
         #[cfg(target_arch = "x86_64")]
         if g.x86_64_v3 {
             // SAFETY: `x86_64_v3` is true only when the processor reported every feature
             // `insert_x86_64_v3` is compiled for (see `x86_64_v3_detected`).
             #[allow(unsafe_code)]
-            return unsafe { self.insert_x86_64_v3(g, cells, v, zone) };
+            return unsafe {
+                if grid {
+                    self.insert_x86_64_v3::<true>(g, cells, v, zone)
+                } else {
+                    self.insert_x86_64_v3::<false>(g, cells, v, zone)
+                }
+            };
         }
-        self.insert_body(g, cells, v, zone)
+        if grid {
+            self.insert_body::<true>(g, cells, v, zone)
+        } else {
+            self.insert_body::<false>(g, cells, v, zone)
+        }
     }
 
     /// [`Worker::insert`] compiled for the x86-64-v3 level (AVX2, BMI1/2, LZCNT, FMA,
@@ -685,28 +704,28 @@ impl Worker {
     /// result: Rust never fuses a multiplication and an addition on its own, FMA or not.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,bmi1,bmi2,fma,lzcnt,popcnt")]
-    fn insert_x86_64_v3(
+    fn insert_x86_64_v3<const GRID: bool>(
         &mut self,
         g: &Geometry,
         cells: &[Cell],
         v: u32,
         zone: Zone,
     ) -> Result<(), Missed> {
-        self.insert_body(g, cells, v, zone)
+        self.insert_body::<GRID>(g, cells, v, zone)
     }
 
     /// The insertion itself, inlined into both copies with everything it calls on the
     /// common path (the walk, the predicates' float filters, the star's linking); only
     /// rare paths (exact ties, large stars, the grid's wide integers) stay shared calls.
     #[inline(always)]
-    fn insert_body(
+    fn insert_body<const GRID: bool>(
         &mut self,
         g: &Geometry,
         cells: &[Cell],
         v: u32,
         zone: Zone,
     ) -> Result<(), Missed> {
-        let t0 = self.locate(g, cells, v, zone);
+        let t0 = self.locate::<GRID>(g, cells, v, zone);
         // The buffers are rebuilt below; only a complete insertion leaves a star.
         self.star_hint = false;
         let t0 = t0.ok_or(Missed::Foreign)?;
@@ -744,7 +763,7 @@ impl Worker {
                 let raw = raws[f];
                 if raw[1] & MARK == 0 {
                     let tv2 = raw.map(|u| u & VERTEX_MASK);
-                    if g.conflict(tv2, v) {
+                    if g.conflict::<GRID>(tv2, v) {
                         // `t` is owned, so the face it shares with `t2` is too.
                         if !zone.owns_beyond_owned_face(g.coords, tv2[(link & 3) as usize]) {
                             self.unmark(cells);
@@ -1049,7 +1068,7 @@ impl<'a> Builder<'a> {
     /// The first tetrahedron and its four ghosts.
     fn start(&mut self, [a, b, c, d]: [u32; 4]) {
         self.provide(0, 4096);
-        let (a, b) = if self.g.orient(a, b, c, d) == Sign::Positive {
+        let (a, b) = if self.g.orient::<true>(a, b, c, d) == Sign::Positive {
             (a, b)
         } else {
             (b, a)
@@ -1250,7 +1269,7 @@ impl<'a> Builder<'a> {
     /// walk for `v` ends in, or the nearest such one breadth-first from it.
     fn zone_start(&mut self, z: usize, v: u32, zone: Zone) -> Option<u32> {
         self.revive_start();
-        let t = self.workers[0].locate(&self.g, &self.cells, v, Zone::ALL)?;
+        let t = self.workers[0].locate::<true>(&self.g, &self.cells, v, Zone::ALL)?;
         let w = &mut self.workers[z];
         w.place(t);
         let mut queue = vec![t];
