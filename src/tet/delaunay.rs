@@ -399,13 +399,21 @@ impl Geometry<'_> {
             }
             return Sign::of(f64::from(g.orient(pa, pb, pc, pd)));
         }
-        if let Some(s) = beyond(self.orient_eps, || predicates::orient_det(pa, pb, pc, pd)) {
-            return s;
+        match beyond(self.orient_eps, || predicates::orient_det(pa, pb, pc, pd)) {
+            Some(s) => s,
+            None => self.orient_undecided(a, b, c, d),
         }
-        if let Some(s) = predicates::orient_filter(pa, pb, pc, pd) {
-            return s;
+    }
+
+    /// What [`Geometry::orient`]'s static bound leaves off a grid (out of line, as
+    /// [`Geometry::insphere_undecided`]).
+    #[inline(never)]
+    fn orient_undecided(&self, a: u32, b: u32, c: u32, d: u32) -> Sign {
+        let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
+        match predicates::orient_filter(pa, pb, pc, pd) {
+            Some(s) => s,
+            None => predicates::orient_exact(pa, pb, pc, pd),
         }
-        predicates::orient_exact(pa, pb, pc, pd)
     }
 
     /// [`Geometry::orient`] outside the insertion's kernel.
@@ -427,24 +435,39 @@ impl Geometry<'_> {
             // leaves is nearly always an exact tie: no per-axis bound. Not the static
             // bound either: on the 1M well lattice it decides about as often as not, and
             // the mispredicted branch cost more than the bound saves.
-            Some(g) => {
+            Some(_) => {
                 let (det, lift) = predicates::insphere_det_lift(pa, pb, pc, pd, pe);
                 match predicates::lift_bound(det, lift) {
                     Some(s) => s,
-                    None => Sign::of(f64::from(g.insphere(pa, pb, pc, pd, pe))),
+                    None => self.insphere_undecided::<GRID>([a, b, c, d], pe),
                 }
             }
             None => {
-                if let Some(s) = beyond(self.insphere_eps, || {
+                match beyond(self.insphere_eps, || {
                     predicates::insphere_det(pa, pb, pc, pd, pe)
                 }) {
-                    return s;
-                }
-                match predicates::insphere_filter(pa, pb, pc, pd, pe) {
                     Some(s) => s,
-                    None => predicates::insphere_exact(pa, pb, pc, pd, pe),
+                    None => self.insphere_undecided::<GRID>([a, b, c, d], pe),
                 }
             }
+        }
+    }
+
+    /// What [`Geometry::insphere`]'s first bound leaves: the per-call filter and the exact
+    /// test (integers on a grid). Out of line, and the points loaded again here, so the
+    /// kernel need not keep them past its determinant: it had stored them to the stack
+    /// and loaded them back on every test.
+    #[inline(never)]
+    fn insphere_undecided<const GRID: bool>(&self, [a, b, c, d]: [u32; 4], pe: DVec3) -> Sign {
+        let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
+        if GRID {
+            return Sign::of(f64::from(
+                self.grid_of_kernel().insphere(pa, pb, pc, pd, pe),
+            ));
+        }
+        match predicates::insphere_filter(pa, pb, pc, pd, pe) {
+            Some(s) => s,
+            None => predicates::insphere_exact(pa, pb, pc, pd, pe),
         }
     }
 
