@@ -478,15 +478,15 @@ impl Geometry<'_> {
         match self.insphere::<GRID>(t, pq) {
             Sign::Positive => true,
             Sign::Negative => false,
-            Sign::Zero => self.perturbed_tie(t, q),
+            Sign::Zero => self.perturbed_tie::<GRID>(t, q),
         }
     }
 
     /// The symbolic perturbation's answer where the in-sphere determinant is zero.
     #[inline(never)]
-    fn perturbed_tie(&self, t: [u32; 4], q: u32) -> bool {
+    fn perturbed_tie<const GRID: bool>(&self, t: [u32; 4], q: u32) -> bool {
         if !self.lex_rank.is_empty() {
-            return self.perturbed_tie_ranked(t, q);
+            return self.perturbed_tie_ranked::<GRID>(t, q);
         }
         let ids = [t[0], t[1], t[2], t[3], q];
         let greater = |i: usize, k: usize| {
@@ -504,7 +504,7 @@ impl Geometry<'_> {
             if k == 4 {
                 return false;
             }
-            if let Some(inside) = self.replaced_orient(t, k, q) {
+            if let Some(inside) = self.replaced_orient::<GRID>(t, k, q) {
                 return inside;
             }
         }
@@ -514,10 +514,10 @@ impl Geometry<'_> {
     /// One step of the tie-break: the sign of `orient` of `t` with its vertex `k` replaced
     /// by `q` (true: `q` inside), or `None` when that is zero too.
     #[inline]
-    fn replaced_orient(&self, t: [u32; 4], k: usize, q: u32) -> Option<bool> {
+    fn replaced_orient<const GRID: bool>(&self, t: [u32; 4], k: usize, q: u32) -> Option<bool> {
         let mut r = t;
         r[k] = q;
-        match self.orient_any(r[0], r[1], r[2], r[3]) {
+        match self.orient::<GRID>(r[0], r[1], r[2], r[3]) {
             Sign::Positive => Some(true),
             Sign::Negative => Some(false),
             Sign::Zero => None,
@@ -529,7 +529,7 @@ impl Geometry<'_> {
     /// one picked as the largest of five keys `(rank + 1) * 8 + position` (a maximum,
     /// without the branches of a search, which mispredicted about twice per tie on well
     /// data; a visited point's key becomes 0).
-    fn perturbed_tie_ranked(&self, t: [u32; 4], q: u32) -> bool {
+    fn perturbed_tie_ranked<const GRID: bool>(&self, t: [u32; 4], q: u32) -> bool {
         let ids = [t[0], t[1], t[2], t[3], q];
         let mut keys = [0u64; 5];
         for (i, (key, &u)) in keys.iter_mut().zip(&ids).enumerate() {
@@ -542,7 +542,7 @@ impl Geometry<'_> {
                 return false;
             }
             keys[k] = 0;
-            if let Some(inside) = self.replaced_orient(t, k, q) {
+            if let Some(inside) = self.replaced_orient::<GRID>(t, k, q) {
                 return inside;
             }
         }
