@@ -762,7 +762,8 @@ impl Worker {
 
     /// The insertion itself, inlined into both copies with everything it calls on the
     /// common path (the walk, the predicates' float filters, the star's linking); only
-    /// rare paths (exact ties, large stars, the grid's wide integers) stay shared calls.
+    /// rare paths (what the first bounds leave, exact ties, large stars, the grid's wide
+    /// integers) stay shared calls.
     #[inline(always)]
     fn insert_body<const GRID: bool>(
         &mut self,
