@@ -376,8 +376,8 @@ impl Geometry<'_> {
         }
     }
 
-    /// [`predicates::orient`] of four vertices. `GRID`: look for the integer grid (else
-    /// the float path is taken whatever the point set; exact either way). The insertion is
+    /// [`predicates::orient`] of four vertices. `GRID`: the point set has an integer grid
+    /// (then the grid's exact integers, else the float path; both exact). The insertion is
     /// compiled once for each, so a point set without a grid runs a kernel with no test
     /// for one, and LLVM keeps its straight-line hot path in registers.
     #[inline(always)]
@@ -430,27 +430,19 @@ impl Geometry<'_> {
     #[inline(always)]
     fn insphere<const GRID: bool>(&self, [a, b, c, d]: [u32; 4], pe: DVec3) -> Sign {
         let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
-        match GRID.then(|| self.grid_of_kernel()) {
+        let decided = if GRID {
             // On a grid the exact test is integer arithmetic, and what the cheap bound
             // leaves is nearly always an exact tie: no per-axis bound. Not the static
             // bound either: on the 1M well lattice it decides about as often as not, and
             // the mispredicted branch cost more than the bound saves.
-            Some(_) => {
-                let (det, lift) = predicates::insphere_det_lift(pa, pb, pc, pd, pe);
-                match predicates::lift_bound(det, lift) {
-                    Some(s) => s,
-                    None => self.insphere_undecided::<GRID>([a, b, c, d], pe),
-                }
-            }
-            None => {
-                match beyond(self.insphere_eps, || {
-                    predicates::insphere_det(pa, pb, pc, pd, pe)
-                }) {
-                    Some(s) => s,
-                    None => self.insphere_undecided::<GRID>([a, b, c, d], pe),
-                }
-            }
-        }
+            let (det, lift) = predicates::insphere_det_lift(pa, pb, pc, pd, pe);
+            predicates::lift_bound(det, lift)
+        } else {
+            beyond(self.insphere_eps, || {
+                predicates::insphere_det(pa, pb, pc, pd, pe)
+            })
+        };
+        decided.unwrap_or_else(|| self.insphere_undecided::<GRID>([a, b, c, d], pe))
     }
 
     /// What [`Geometry::insphere`]'s first bound leaves: the per-call filter and the exact
