@@ -312,6 +312,10 @@ enum Missed {
 }
 
 /// One inserting thread's state: reused buffers, its free slots and its place in the mesh.
+/// Aligned to two cache lines, so two workers' states, written on every insertion, never
+/// share a line (nor a pair of lines the processor fetches together): unaligned, the two
+/// workers of a parallel pass wrote one shared line and 1M uniform points took 7% longer.
+#[repr(align(128))]
 struct Worker {
     /// Tetrahedra the current cavity search tested and kept (marked `v[1]`).
     kept: Vec<u32>,
