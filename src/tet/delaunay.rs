@@ -86,13 +86,11 @@ fn build_in_zones(
             max: MAX_POINTS,
         });
     }
-    if let Some(index) = points.iter().position(|p| !p.is_finite()) {
+    if let Some(index) = points.par_iter().position_first(|p| !p.is_finite()) {
         return Err(TetError::NonFinite { index });
     }
     // -0.0 and 0.0 are one coordinate: make them one bit pattern before sorting.
-    for p in &mut points {
-        *p += DVec3::ZERO;
-    }
+    points.par_iter_mut().for_each(|p| *p += DVec3::ZERO);
     // Vertices are numbered in insertion order, so the points the construction touches
     // one after the other are neighbours in memory too; equal points are merged on the
     // way.
@@ -107,19 +105,18 @@ fn build_in_zones(
             distinct: order.len(),
         });
     }
+    // The shift from the input (the same bounding box), applied while gathering.
+    let (shift, extent) = exact_shift(&points);
     let input = points;
-    let mut points: Vec<DVec3> = order.par_iter().map(|&i| input[i as usize]).collect();
+    let mut points: Vec<DVec3> = order
+        .par_iter()
+        .map(|&i| input[i as usize] - shift)
+        .collect();
     drop(input);
     drop(order);
-    let (shift, extent) = exact_shift(&points);
-    for p in &mut points {
-        *p -= shift;
-    }
     let x86_64_v3 = !portable && x86_64_v3_detected();
     let built = Builder::run(&points, extent, &rounds, zones, x86_64_v3, progress);
-    for p in &mut points {
-        *p += shift;
-    }
+    points.par_iter_mut().for_each(|p| *p += shift);
     Ok(TetMesh::from_cells(
         points,
         built?,
@@ -134,12 +131,16 @@ fn build_in_zones(
 /// Also returns the bounding box's extent per axis (the same before and after the shift,
 /// since the shifted coordinates are exact).
 fn exact_shift(points: &[DVec3]) -> (DVec3, DVec3) {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for &p in points {
-        lo = lo.min(p);
-        hi = hi.max(p);
-    }
+    let (lo, hi) = points
+        .par_iter()
+        .fold(
+            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        )
+        .reduce(
+            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        );
     let mut shift = DVec3::ZERO;
     for k in 0..3 {
         let (a, b) = (lo[k], hi[k]);
