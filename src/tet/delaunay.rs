@@ -15,7 +15,7 @@ use std::sync::atomic::Ordering::Relaxed;
 
 use super::exact_int::Grid;
 use super::predicates::{self, Sign};
-use super::sort::{InsertionOrder, insertion_order, lex_ranks};
+use super::sort::{InsertionOrder, bounding_box, insertion_order, lex_ranks};
 use super::{Cell, FACE_OUTWARD, NO_NEIGHBOUR, TetError, TetMesh, load4};
 use crate::progress::Progress;
 
@@ -131,16 +131,7 @@ fn build_in_zones(
 /// Also returns the bounding box's extent per axis (the same before and after the shift,
 /// since the shifted coordinates are exact).
 fn exact_shift(points: &[DVec3]) -> (DVec3, DVec3) {
-    let (lo, hi) = points
-        .par_iter()
-        .fold(
-            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |(lo, hi), &p| (lo.min(p), hi.max(p)),
-        )
-        .reduce(
-            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |a, b| (a.0.min(b.0), a.1.max(b.1)),
-        );
+    let (lo, hi) = bounding_box(points);
     let mut shift = DVec3::ZERO;
     for k in 0..3 {
         let (a, b) = (lo[k], hi[k]);

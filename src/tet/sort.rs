@@ -104,6 +104,15 @@ pub struct InsertionOrder {
     pub rounds: Vec<usize>,
 }
 
+/// The lowest and highest coordinates of `points` per axis (infinities when empty).
+pub fn bounding_box(points: &[DVec3]) -> (DVec3, DVec3) {
+    let empty = || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    points
+        .par_iter()
+        .fold(empty, |(lo, hi), &p| (lo.min(p), hi.max(p)))
+        .reduce(empty, |a, b| (a.0.min(b.0), a.1.max(b.1)))
+}
+
 /// The insertion order of the distinct `points`, finding equal points on the way: round 0
 /// (about 64 points) first, each later round about twice as large, the last holding about
 /// half of the points; within a round, Hilbert order. A point's round is drawn from a
@@ -120,16 +129,7 @@ pub fn insertion_order(points: &[DVec3]) -> InsertionOrder {
             rounds: vec![0],
         };
     }
-    let (lo, hi) = points
-        .par_iter()
-        .fold(
-            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |(lo, hi), &p| (lo.min(p), hi.max(p)),
-        )
-        .reduce(
-            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |a, b| (a.0.min(b.0), a.1.max(b.1)),
-        );
+    let (lo, hi) = bounding_box(points);
     // Each axis scaled to the curve's whole range on its own (the bounding box, not its
     // cube): well data spans kilometres across and a few hundred metres down, and a cube
     // would leave the curve's coarse levels blind to depth. The walks on the 1M UTM lattice
