@@ -1335,29 +1335,31 @@ impl<'a> Builder<'a> {
 /// returns the finite tetrahedra, hull faces marked [`NO_NEIGHBOUR`]: the cells of the
 /// [`TetMesh`], in the construction's own array (no copy, no new pages).
 fn finish(mut cells: Vec<Cell>) -> Vec<Cell> {
-    // Ghosts removed and the finite tetrahedra counted in one parallel pass: each ghost
-    // writes only its own vertex words and the one link of its finite neighbour across
-    // its hull face, which no other ghost writes and the count does not read.
-    let live = cells
+    // Ghosts removed and the free slots listed in one parallel pass: each ghost writes
+    // only its own vertex words and the one link of its finite neighbour across its hull
+    // face, which no other ghost writes. The list is in slot order, so the holes to fill
+    // (free slots below the number of finite tetrahedra) are its first part: no second
+    // pass over the array to find them.
+    let free: Vec<u32> = cells
         .par_iter()
-        .filter(|c| {
+        .enumerate()
+        .filter_map(|(t, c)| {
             if c.is_dead() {
-                return false;
+                return Some(t as u32);
             }
             if c.v[3].load(Relaxed) == INF {
                 set_link(&cells, c.n[3].load(Relaxed), NO_NEIGHBOUR);
                 c.kill();
-                return false;
+                return Some(t as u32);
             }
-            true
+            None
         })
-        .count();
-    let holes: Vec<usize> = (0..live)
-        .into_par_iter()
-        .filter(|&d| cells[d].is_dead())
         .collect();
+    let live = cells.len() - free.len();
+    let holes = &free[..free.partition_point(|&t| (t as usize) < live)];
     let mut top = cells.len();
-    for d in holes {
+    for &d in holes {
+        let d = d as usize;
         loop {
             top -= 1;
             if !cells[top].is_dead() {
