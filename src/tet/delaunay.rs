@@ -91,6 +91,7 @@ fn build_in_zones(
     }
     // -0.0 and 0.0 are one coordinate: make them one bit pattern before sorting.
     points.par_iter_mut().for_each(|p| *p += DVec3::ZERO);
+    let bbox = bounding_box(&points);
     // Vertices are numbered in insertion order, so the points the construction touches
     // one after the other are neighbours in memory too; equal points are merged on the
     // way.
@@ -98,15 +99,16 @@ fn build_in_zones(
         order,
         vertex_of_input,
         rounds,
-    } = insertion_order(&points);
+    } = insertion_order(&points, bbox);
     let duplicates_merged = vertex_of_input.len() - order.len();
     if order.len() < 4 {
         return Err(TetError::TooFewPoints {
             distinct: order.len(),
         });
     }
-    // The shift from the input (the same bounding box), applied while gathering.
-    let (shift, extent) = exact_shift(&points);
+    // The input's bounding box is the distinct points' too; the shift is applied while
+    // gathering.
+    let (shift, extent) = exact_shift(bbox);
     let input = points;
     let mut points: Vec<DVec3> = order
         .par_iter()
@@ -125,13 +127,13 @@ fn build_in_zones(
     ))
 }
 
-/// A per-axis translation under which every coordinate difference `x - shift` is exact
-/// (Sterbenz: `s/2 <= x <= 2s`), so predicates on shifted points equal those on the input;
-/// zero on axes where no such shift exists (coordinates spanning zero are small anyway).
+/// For the points of bounding box `(lo, hi)`: a per-axis translation under which every
+/// coordinate difference `x - shift` is exact (Sterbenz: `s/2 <= x <= 2s`), so predicates
+/// on shifted points equal those on the input; zero on axes where no such shift exists
+/// (coordinates spanning zero are small anyway).
 /// Also returns the bounding box's extent per axis (the same before and after the shift,
 /// since the shifted coordinates are exact).
-fn exact_shift(points: &[DVec3]) -> (DVec3, DVec3) {
-    let (lo, hi) = bounding_box(points);
+fn exact_shift((lo, hi): (DVec3, DVec3)) -> (DVec3, DVec3) {
     let mut shift = DVec3::ZERO;
     for k in 0..3 {
         let (a, b) = (lo[k], hi[k]);

@@ -119,8 +119,8 @@ pub fn bounding_box(points: &[DVec3]) -> (DVec3, DVec3) {
 /// hash of its coordinates, so equal points share a round and a Hilbert key and meet in
 /// the one parallel sort of the keys; points with equal keys are ordered by coordinates
 /// (then index) to bring equal ones together. No NaN allowed; `-0.0` must already be
-/// `0.0`.
-pub fn insertion_order(points: &[DVec3]) -> InsertionOrder {
+/// `0.0`. `(lo, hi)` is the points' [`bounding_box`] (the caller needs it too).
+pub fn insertion_order(points: &[DVec3], (lo, hi): (DVec3, DVec3)) -> InsertionOrder {
     let n = points.len();
     if n == 0 {
         return InsertionOrder {
@@ -129,7 +129,6 @@ pub fn insertion_order(points: &[DVec3]) -> InsertionOrder {
             rounds: vec![0],
         };
     }
-    let (lo, hi) = bounding_box(points);
     // Each axis scaled to the curve's whole range on its own (the bounding box, not its
     // cube): well data spans kilometres across and a few hundred metres down, and a cube
     // would leave the curve's coarse levels blind to depth. The walks on the 1M UTM lattice
@@ -336,7 +335,7 @@ mod tests {
         let again: Vec<DVec3> = (0..1000).step_by(10).map(|i| pts[i]).collect();
         pts.extend(again);
         pts.push(DVec3::new(5.0, 5.0, 5.0 + 1e-12));
-        let o = insertion_order(&pts);
+        let o = insertion_order(&pts, bounding_box(&pts));
         assert_eq!((o.rounds[0], *o.rounds.last().unwrap()), (0, 1001));
         assert!(o.rounds.windows(2).all(|w| w[0] < w[1]));
         let mut seen = o.order.clone();
