@@ -310,8 +310,8 @@ enum Missed {
 /// page, and a hardware prefetcher reading ahead of one worker's state (every insertion
 /// clears its 1 KiB vertex table front to back) never pulls the other's lines away from
 /// its core; prefetchers stay within a page. Aligned to two cache lines only, the second
-/// worker of every parallel pass ran 7-10% slower than the first while both ran, and 1M
-/// uniform points took 7% longer (see docs/tet.md, *Parallel insertion*).
+/// worker ran 7-10% slower than the first in nearly every parallel pass while both ran,
+/// and 1M uniform points took 7% longer (see docs/tet.md, *Parallel insertion*).
 #[repr(align(4096))]
 struct Worker {
     /// Tetrahedra the current cavity search tested and kept (marked `v[1]`).
