@@ -45,8 +45,26 @@ fn main() -> ExitCode {
     match outcome {
         Ok(code) => code,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", describe(&err));
             ExitCode::from(cli::EXIT_FAILURE)
         }
     }
+}
+
+/// The error and its causes, `: `-separated as `{:#}` prints them, but without a cause
+/// whose message the text before it already holds (errors such as the contour's
+/// "tetrahedralization: ..." print their source themselves).
+fn describe(err: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in err.chain() {
+        let part = cause.to_string();
+        if text.contains(&part) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&part);
+    }
+    text
 }

@@ -177,6 +177,11 @@ fn malformed_and_degenerate_files_fail_with_a_located_message() {
         ),
         ("few.xyz", "0 0 0\n1 0 0\n", "at least 4 distinct points"),
         (
+            "range.xyz",
+            "0 0 0\n1 0 0\n0 1 0\n0 0 1\n1e300 1e300 1e300\n",
+            "coordinates too far apart in magnitude for exact arithmetic: point 1 has 1e0 and point 4 has 1e300",
+        ),
+        (
             "bad.csv",
             "x,y,z\n0,0,0\n1,zz,0\n",
             "bad.csv:3: y is not a number",

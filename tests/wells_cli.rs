@@ -152,3 +152,54 @@ fn below_detection_flags_reach_the_reader() {
     assert_eq!(range(&["--negative-values", "value"]), (-0.01, 1));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_coordinate_beyond_any_place_on_earth_exits_1_naming_the_hole() {
+    let dir = std::env::temp_dir().join(format!("wellmesh-cli-far-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("far.csv");
+    // A northing with a stray exponent.
+    std::fs::write(
+        &path,
+        "well,x,y,z,value\nA,500000,7000000,0,1\nA,500000,7000000,-10,0\nB,500100,7e90,0,1\n",
+    )
+    .unwrap();
+    let out = wellmesh(&["inspect", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("far.csv: hole 'B': a sample position") && err.contains("more than 1e9"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn wells_in_one_vertical_section_exit_1_saying_so_once() {
+    // Three holes on one line in plan view: every sample lies in one vertical plane.
+    let dir = std::env::temp_dir().join(format!("wellmesh-cli-fence-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("fence.csv");
+    let mut csv = String::from("well,x,y,z,value\n");
+    for (w, x) in [("A", 0), ("B", 100), ("C", 200)] {
+        for z in [0, -10, -20] {
+            csv.push_str(&format!("{w},{x},0,{z},{}\n", u8::from(z == -10)));
+        }
+    }
+    std::fs::write(&path, csv).unwrap();
+    let glb = dir.join("fence.glb");
+    let out = wellmesh(&[
+        "contour",
+        path.to_str().unwrap(),
+        "-o",
+        glb.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.matches("lie in one plane").count(), 1, "{err}");
+    assert!(
+        err.starts_with("error: tetrahedralization: all points lie in one plane"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -15,7 +15,7 @@ use std::sync::atomic::Ordering::Relaxed;
 
 use super::exact_int::Grid;
 use super::predicates::{self, Sign};
-use super::sort::{InsertionOrder, bounding_box, insertion_order, lex_ranks};
+use super::sort::{InsertionOrder, bounds, insertion_order, lex_ranks};
 use super::{Cell, FACE_OUTWARD, NO_NEIGHBOUR, TetError, TetMesh, load4};
 use crate::progress::Progress;
 
@@ -91,7 +91,91 @@ fn build_in_zones(
     }
     // -0.0 and 0.0 are one coordinate: make them one bit pattern before sorting.
     points.par_iter_mut().for_each(|p| *p += DVec3::ZERO);
-    let bbox = bounding_box(&points);
+    let (lo, hi, smallest) = bounds(&points);
+    let scale = exact_scale((lo, hi), smallest, &points)?;
+    if scale == 0 {
+        return build_exact(points, (lo, hi), zones, portable, progress);
+    }
+    // Outside the predicates' window (see `exact_scale`): built on the points moved by
+    // the exact local shift and scaled by a power of two, which changes no predicate's
+    // sign, then moved back. Every step is exact, so the mesh's points are the input's.
+    let (shift, _) = exact_shift((lo, hi));
+    let (up, down) = (2f64.powi(scale), 2f64.powi(-scale));
+    points.par_iter_mut().for_each(|p| *p = (*p - shift) * up);
+    let (lo, hi, _) = bounds(&points);
+    let mut mesh = build_exact(points, (lo, hi), zones, portable, progress)?;
+    mesh.points
+        .par_iter_mut()
+        .for_each(|p| *p = *p * down + shift);
+    Ok(mesh)
+}
+
+/// Smallest binary exponent a nonzero coordinate may have for the exact predicates: its
+/// last bit is then at least `2^-200`, so every product of up to five coordinates (the
+/// in-sphere determinant's degree) is a multiple of `2^-1000` and never underflows.
+const EXPONENT_LOW: i32 = -148;
+/// Largest binary exponent of a coordinate (after the local shift) for the exact
+/// predicates: products of five stay below `2^750`, far from overflow.
+const EXPONENT_HIGH: i32 = 149;
+
+/// The power of two `2^k` by which the points, after [`exact_shift`], must be scaled so that
+/// every nonzero coordinate's binary exponent lies in `EXPONENT_LOW..=EXPONENT_HIGH`, where
+/// Shewchuk's expansions (and so `robust`) are exact: `k = 0` for anything real data holds
+/// (magnitudes from about `1e-44` to `1e45`). Scaling by a power of two is itself exact in
+/// that window and changes no orientation or in-sphere sign, so the mesh is the same.
+/// (A shifted coordinate may be smaller than the smallest input one, but its last bit is
+/// not below half the shift's, so the bound on the input's magnitudes suffices.)
+/// An error naming two points when the nonzero magnitudes lie further apart than the
+/// window is wide (about 89 orders of magnitude): no one scale fits them.
+fn exact_scale(
+    (lo, hi): (DVec3, DVec3),
+    smallest: DVec3,
+    points: &[DVec3],
+) -> Result<i32, TetError> {
+    let smallest = smallest.min_element();
+    if points.is_empty() || !smallest.is_finite() {
+        return Ok(0);
+    }
+    let (shift, _) = exact_shift((lo, hi));
+    let largest = (lo - shift).abs().max((hi - shift).abs()).max_element();
+    if largest == 0.0 {
+        // One point, repeated: too few points, said later.
+        return Ok(0);
+    }
+    let exponent = |v: f64| v.log2().floor() as i32;
+    let (low, high) = (exponent(smallest), exponent(largest));
+    if low >= EXPONENT_LOW && high <= EXPONENT_HIGH {
+        return Ok(0);
+    }
+    if high - low > EXPONENT_HIGH - EXPONENT_LOW {
+        let position = |key: &(dyn Fn(f64) -> f64 + Sync)| -> (usize, f64) {
+            points
+                .par_iter()
+                .enumerate()
+                .flat_map_iter(|(i, p)| p.to_array().map(|c| (i, c)))
+                .map(|(i, c)| (i, c, key(c.abs())))
+                .min_by(|a, b| a.2.total_cmp(&b.2).then(a.0.cmp(&b.0)))
+                .map(|(i, c, _)| (i, c))
+                .unwrap_or((0, 0.0))
+        };
+        let small = position(&|a| if a == 0.0 { f64::INFINITY } else { a });
+        let large = position(&|a| -a);
+        return Err(TetError::MagnitudeRange { small, large });
+    }
+    // The scale nearest 1 that fits (|k| <= 926, so `2^k` is a normal float).
+    Ok(0.clamp(EXPONENT_LOW - low, EXPONENT_HIGH - high))
+}
+
+/// [`build_in_zones`] on points already checked, with `-0.0` made `0.0` and their bounding
+/// box, whose nonzero coordinates (after [`exact_shift`]) lie in the exact predicates'
+/// window ([`exact_scale`] is 0).
+fn build_exact(
+    points: Vec<DVec3>,
+    bbox: (DVec3, DVec3),
+    zones: usize,
+    portable: bool,
+    progress: &dyn Progress,
+) -> Result<TetMesh, TetError> {
     // Vertices are numbered in insertion order, so the points the construction touches
     // one after the other are neighbours in memory too; equal points are merged on the
     // way.
@@ -1446,16 +1530,139 @@ mod tests {
     /// Each tetrahedron as its sorted input-point positions, sorted: comparable across
     /// builds whatever their slot order.
     fn tet_set(mesh: &TetMesh) -> Vec<[[u64; 3]; 4]> {
+        tet_set_mapped(mesh, |p| p)
+    }
+
+    /// The tetrahedra of `mesh` as [`tet_set`] does, each point first mapped by `back`.
+    fn tet_set_mapped(mesh: &TetMesh, back: impl Fn(DVec3) -> DVec3) -> Vec<[[u64; 3]; 4]> {
         let mut set: Vec<[[u64; 3]; 4]> = mesh
             .tets()
             .map(|t| {
-                let mut c = t.map(|v| mesh.points[v as usize].to_array().map(f64::to_bits));
+                let mut c = t.map(|v| back(mesh.points[v as usize]).to_array().map(f64::to_bits));
                 c.sort_unstable();
                 c
             })
             .collect();
         set.sort_unstable();
         set
+    }
+
+    #[test]
+    fn points_at_any_magnitude_give_the_mesh_of_the_same_points_near_one() {
+        // Points in [0, 1): random ones, a lattice full of co-spherical ties, and
+        // duplicates; once as multiples of 2^-20 (an integer grid: `exact_int`) and once
+        // of 2^-50 (no grid: `robust`'s expansions). Each case places them exactly at
+        // another magnitude, beyond the range where products of five coordinates stay
+        // normal and finite, or at the window's edges, where nothing is scaled.
+        let two = |e: i32| 2f64.powi(e);
+        let cases: [(&str, DVec3, f64); 7] = [
+            // (name, offset, unit): a point is offset + m * unit.
+            ("huge", DVec3::ZERO, two(1000)),
+            (
+                "huge, far from the origin",
+                DVec3::splat(two(1000)),
+                two(999),
+            ),
+            ("negative and huge", DVec3::splat(-two(1000)), two(999)),
+            ("subnormal", DVec3::ZERO, two(-1024)),
+            ("tiny, off the origin", DVec3::splat(two(-1000)), two(-1001)),
+            ("top of the window", DVec3::ZERO, two(149)),
+            ("bottom of the window", DVec3::ZERO, two(-98)),
+        ];
+        for bits in [20, 50] {
+            let quantum = two(-bits);
+            let mut state = 0x2545_F491_4F6C_DD1Du64;
+            let mut base: Vec<DVec3> = (0..400)
+                .map(|_| {
+                    let p = DVec3::new(
+                        xorshift(&mut state),
+                        xorshift(&mut state),
+                        xorshift(&mut state),
+                    );
+                    (p / quantum).floor() * quantum
+                })
+                .collect();
+            for i in 0..6 {
+                for j in 0..6 {
+                    for k in 0..6 {
+                        base.push(DVec3::new(i as f64, j as f64, k as f64) / 8.0);
+                    }
+                }
+            }
+            base.extend_from_within(..20);
+            let reference = build_in_zones(base.clone(), 1, false, &NoProgress).unwrap();
+            reference.validate().unwrap();
+            let expected = tet_set(&reference);
+            for (name, offset, unit) in cases {
+                let name = format!("{name}, multiples of 2^-{bits}");
+                let pts: Vec<DVec3> = base.iter().map(|&m| offset + m * unit).collect();
+                assert!(
+                    pts.iter()
+                        .zip(&base)
+                        .all(|(&p, &m)| (p - offset) / unit == m),
+                    "{name}: the points are placed exactly"
+                );
+                let mesh = build_in_zones(pts.clone(), 1, false, &NoProgress)
+                    .unwrap_or_else(|e| panic!("{name}: {e}"));
+                assert_eq!(mesh.duplicates_merged, 20, "{name}");
+                for (i, &p) in pts.iter().enumerate() {
+                    let q = mesh.points[mesh.vertex_of_input[i] as usize];
+                    assert_eq!(
+                        q.to_array().map(f64::to_bits),
+                        p.to_array().map(f64::to_bits),
+                        "{name}: input point {i} kept bit for bit"
+                    );
+                }
+                assert!(
+                    tet_set_mapped(&mesh, |p| (p - offset) / unit) == expected,
+                    "{name}: not the mesh of the same points near one"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn coordinates_too_far_apart_in_magnitude_are_an_error_naming_them() {
+        let mut pts = vec![
+            DVec3::ZERO,
+            DVec3::X,
+            DVec3::Y,
+            DVec3::Z,
+            DVec3::splat(1e300),
+        ];
+        match build_in_zones(pts.clone(), 1, false, &NoProgress) {
+            Err(TetError::MagnitudeRange { small, large }) => {
+                assert_eq!((small, large), ((1, 1.0), (4, 1e300)));
+            }
+            other => panic!("expected a magnitude error, got {other:?}"),
+        }
+        let message = build_in_zones(pts.clone(), 1, false, &NoProgress)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("point 1 has 1e0 and point 4 has 1e300"),
+            "{message}"
+        );
+        // Tiny against ordinary, and the largest float against ordinary.
+        pts[4] = DVec3::new(0.5, 0.5, 1e-300);
+        assert!(matches!(
+            build_in_zones(pts.clone(), 1, false, &NoProgress),
+            Err(TetError::MagnitudeRange {
+                small: (4, 1e-300),
+                large: (1, 1.0)
+            })
+        ));
+        pts[4] = DVec3::splat(f64::MAX);
+        assert!(matches!(
+            build_in_zones(pts.clone(), 1, false, &NoProgress),
+            Err(TetError::MagnitudeRange {
+                large: (4, f64::MAX),
+                ..
+            })
+        ));
+        // 89 orders of magnitude apart is still one mesh.
+        pts[4] = DVec3::splat(1e88);
+        build_in_zones(pts, 1, false, &NoProgress).unwrap();
     }
 
     #[test]

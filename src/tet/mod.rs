@@ -147,6 +147,17 @@ pub enum TetError {
     AllCoplanar,
     #[error("point {index} has a non-finite coordinate (NaN or infinity)")]
     NonFinite { index: usize },
+    /// No one power-of-two scale brings every nonzero coordinate into the window where
+    /// the exact predicates cannot overflow or underflow: `(point, coordinate)` with the
+    /// smallest and the largest nonzero magnitude.
+    #[error(
+        "coordinates too far apart in magnitude for exact arithmetic: point {} has {:e} and point {} has {:e}; nonzero coordinates may differ by a factor of at most 2^297 (about 1e89)",
+        small.0, small.1, large.0, large.1
+    )]
+    MagnitudeRange {
+        small: (usize, f64),
+        large: (usize, f64),
+    },
     #[error("{count} points is more than the {max} a mesh can index")]
     TooManyPoints { count: usize, max: usize },
     #[error("tetrahedralization cancelled")]
@@ -159,14 +170,17 @@ pub enum TetError {
 /// by symbolic perturbation, so the result is unique for a given point set).
 ///
 /// `points` may be at any magnitude (UTM coordinates included): predicates are exact, and
-/// an internal translation is used only where it is itself exact. Points with identical
+/// an internal translation (and, for magnitudes beyond about `1e-44 .. 1e45`, a scale by a
+/// power of two) is used only where it is itself exact. Points with identical
 /// coordinates are merged (`duplicates_merged`); the mesh's `points` are the distinct
 /// points in spatial (Hilbert curve) order and `vertex_of_input` maps each input point to
 /// its vertex. Checks `progress.is_cancelled()`
 /// every few thousand insertions.
 ///
-/// Errors: [`TetError::NonFinite`], [`TetError::TooFewPoints`] (fewer than 4 distinct),
-/// [`TetError::AllCoplanar`], [`TetError::TooManyPoints`], [`TetError::Cancelled`].
+/// Errors: [`TetError::NonFinite`], [`TetError::MagnitudeRange`] (nonzero coordinates
+/// more than about 89 orders of magnitude apart), [`TetError::TooFewPoints`] (fewer than
+/// 4 distinct), [`TetError::AllCoplanar`], [`TetError::TooManyPoints`],
+/// [`TetError::Cancelled`].
 pub fn delaunay(points: &[DVec3], progress: &dyn Progress) -> Result<TetMesh, TetError> {
     delaunay::build(points.to_vec(), progress)
 }

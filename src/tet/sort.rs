@@ -104,13 +104,20 @@ pub struct InsertionOrder {
     pub rounds: Vec<usize>,
 }
 
-/// The lowest and highest coordinates of `points` per axis (infinities when empty).
-pub fn bounding_box(points: &[DVec3]) -> (DVec3, DVec3) {
-    let empty = || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+/// The lowest and highest coordinates of `points` per axis (infinities when empty), and
+/// the smallest nonzero magnitude of a coordinate per axis (infinity where every
+/// coordinate is zero), in one pass.
+pub fn bounds(points: &[DVec3]) -> (DVec3, DVec3, DVec3) {
+    let inf = DVec3::splat(f64::INFINITY);
+    let empty = || (inf, -inf, inf);
     points
         .par_iter()
-        .fold(empty, |(lo, hi), &p| (lo.min(p), hi.max(p)))
-        .reduce(empty, |a, b| (a.0.min(b.0), a.1.max(b.1)))
+        .fold(empty, |(lo, hi, small), &p| {
+            let a = p.abs();
+            let nonzero = DVec3::select(a.cmpeq(DVec3::ZERO), inf, a);
+            (lo.min(p), hi.max(p), small.min(nonzero))
+        })
+        .reduce(empty, |a, b| (a.0.min(b.0), a.1.max(b.1), a.2.min(b.2)))
 }
 
 /// The insertion order of the distinct `points`, finding equal points on the way: round 0
@@ -119,7 +126,7 @@ pub fn bounding_box(points: &[DVec3]) -> (DVec3, DVec3) {
 /// hash of its coordinates, so equal points share a round and a Hilbert key and meet in
 /// the one parallel sort of the keys; points with equal keys are ordered by coordinates
 /// (then index) to bring equal ones together. No NaN allowed; `-0.0` must already be
-/// `0.0`. `(lo, hi)` is the points' [`bounding_box`] (the caller needs it too).
+/// `0.0`. `(lo, hi)` is the points' bounding box ([`bounds`]; the caller needs it too).
 pub fn insertion_order(points: &[DVec3], (lo, hi): (DVec3, DVec3)) -> InsertionOrder {
     let n = points.len();
     if n == 0 {
@@ -335,7 +342,8 @@ mod tests {
         let again: Vec<DVec3> = (0..1000).step_by(10).map(|i| pts[i]).collect();
         pts.extend(again);
         pts.push(DVec3::new(5.0, 5.0, 5.0 + 1e-12));
-        let o = insertion_order(&pts, bounding_box(&pts));
+        let (lo, hi, _) = bounds(&pts);
+        let o = insertion_order(&pts, (lo, hi));
         assert_eq!((o.rounds[0], *o.rounds.last().unwrap()), (0, 1001));
         assert!(o.rounds.windows(2).all(|w| w[0] < w[1]));
         let mut seen = o.order.clone();

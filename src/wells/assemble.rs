@@ -42,6 +42,13 @@ pub(crate) fn examples(items: &[String]) -> String {
     }
 }
 
+/// Largest coordinate magnitude a sample position may have, in the input's unit: `1e9`
+/// metres is 25 times round the Earth, so no coordinate reference system (projected,
+/// geographic or geocentric, in metres or feet) comes near it, while anything beyond is
+/// an error in the data (a wrong column, a unit, an exponent) that would otherwise reach
+/// the output as floats too large for glTF's 32-bit positions.
+pub(crate) const MAX_COORDINATE: f64 = 1e9;
+
 pub(crate) fn finish(
     holes: Holes,
     crs: Option<String>,
@@ -58,6 +65,15 @@ pub(crate) fn finish(
                     file: holes.name.clone(),
                     message: format!(
                         "hole '{}': a sample position is not finite ({p}); check depths and coordinates",
+                        hole.id
+                    ),
+                });
+            }
+            if p.abs().max_element() > MAX_COORDINATE {
+                return Err(WellsError::Invalid {
+                    file: holes.name.clone(),
+                    message: format!(
+                        "hole '{}': a sample position ({p}) lies more than {MAX_COORDINATE:e} from the coordinate system's origin, farther than any place on Earth in metres or feet; check the coordinate columns and the depth unit",
                         hole.id
                     ),
                 });
