@@ -129,6 +129,26 @@ fn json_flag_reports_duplicates() {
 }
 
 #[test]
+fn columns_after_x_y_z_are_ignored() {
+    // An xyz file with an intensity column: the fourth number is not a coordinate.
+    let input = scratch("four_columns.xyz");
+    std::fs::write(&input, "0 0 0 7\n1 0 0 7\n0 1 0 7\n0 0 1 7\n0 0 0 9\n").unwrap();
+    let out = wellmesh()
+        .args(["tetrahedralize", input.to_str().unwrap(), "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["points"], 5);
+    assert_eq!(json["distinct_points"], 4);
+    assert_eq!(json["tets"], 1);
+}
+
+#[test]
 fn csv_with_header_is_read() {
     let input = scratch("points.csv");
     std::fs::write(

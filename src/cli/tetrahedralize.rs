@@ -16,6 +16,7 @@ use wellmesh::tet::delaunay_owned;
 pub struct Args {
     /// Points: `.xyz` (one `x y z` per line, whitespace separated; `#` comments) or `.csv`
     /// (columns `x,y,z` or `easting,northing,elevation`, or the first three without a header).
+    /// Further columns (intensities, values) are ignored; equal points are merged and counted.
     pub points: PathBuf,
     /// Write the tetrahedra as a VTK unstructured grid (`.vtu`).
     #[arg(short, long, value_name = "OUT.vtu")]
