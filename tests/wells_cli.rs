@@ -168,7 +168,9 @@ fn a_coordinate_beyond_any_place_on_earth_exits_1_naming_the_hole() {
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.contains("far.csv: hole 'B': a sample position") && err.contains("more than 1e9"),
+        err.contains(
+            "far.csv: hole 'B': a sample position (5.001e5, 7e90, 0e0) lies more than 1e9"
+        ),
         "{err}"
     );
     std::fs::remove_dir_all(&dir).ok();

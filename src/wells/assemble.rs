@@ -73,8 +73,8 @@ pub(crate) fn finish(
                 return Err(WellsError::Invalid {
                     file: holes.name.clone(),
                     message: format!(
-                        "hole '{}': a sample position ({p}) lies more than {MAX_COORDINATE:e} from the coordinate system's origin, farther than any place on Earth in metres or feet; check the coordinate columns and the depth unit",
-                        hole.id
+                        "hole '{}': a sample position ({:e}, {:e}, {:e}) lies more than {MAX_COORDINATE:e} from the coordinate system's origin, farther than any place on Earth in metres or feet; check the coordinate columns and the depth unit",
+                        hole.id, p.x, p.y, p.z
                     ),
                 });
             }
