@@ -113,26 +113,11 @@ fn tetrahedralize_prints_one_line_and_writes_a_readable_vtu() {
     assert!((volume_m3 - 20_000.0).abs() < 1e-6, "{volume_m3}");
 }
 
-#[test]
-fn json_flag_reports_duplicates() {
-    let input = scratch("lattice_json.xyz");
-    std::fs::write(&input, lattice_xyz()).unwrap();
-    let out = wellmesh()
-        .args(["tetrahedralize", input.to_str().unwrap(), "--json"])
-        .output()
-        .unwrap();
-    assert!(out.status.success());
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(json["points"], 28);
-    assert_eq!(json["distinct_points"], 27);
-    assert_eq!(json["duplicates_merged"], 1);
-}
-
-#[test]
-fn columns_after_x_y_z_are_ignored() {
-    // An xyz file with an intensity column: the fourth number is not a coordinate.
-    let input = scratch("four_columns.xyz");
-    std::fs::write(&input, "0 0 0 7\n1 0 0 7\n0 1 0 7\n0 0 1 7\n0 0 0 9\n").unwrap();
+/// `wellmesh tetrahedralize --json` on `text` written to the scratch file `name`: its
+/// JSON line (the run must succeed).
+fn tetrahedralize_json(name: &str, text: &str) -> serde_json::Value {
+    let input = scratch(name);
+    std::fs::write(&input, text).unwrap();
     let out = wellmesh()
         .args(["tetrahedralize", input.to_str().unwrap(), "--json"])
         .output()
@@ -142,7 +127,24 @@ fn columns_after_x_y_z_are_ignored() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn json_flag_reports_duplicates() {
+    let json = tetrahedralize_json("lattice_json.xyz", &lattice_xyz());
+    assert_eq!(json["points"], 28);
+    assert_eq!(json["distinct_points"], 27);
+    assert_eq!(json["duplicates_merged"], 1);
+}
+
+#[test]
+fn columns_after_x_y_z_are_ignored() {
+    // An xyz file with an intensity column: the fourth number is not a coordinate.
+    let json = tetrahedralize_json(
+        "four_columns.xyz",
+        "0 0 0 7\n1 0 0 7\n0 1 0 7\n0 0 1 7\n0 0 0 9\n",
+    );
     assert_eq!(json["points"], 5);
     assert_eq!(json["distinct_points"], 4);
     assert_eq!(json["tets"], 1);

@@ -11,6 +11,13 @@ fn wellmesh(args: &[&str]) -> std::process::Output {
         .unwrap()
 }
 
+/// A fresh directory for one test's files (removed by the test at its end).
+fn scratch_dir(tag: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("wellmesh-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
 #[test]
 fn inspect_json_reports_the_copper_wells() {
     let out = wellmesh(&["inspect", "sample_wells/copper_wells.csv", "--json"]);
@@ -60,8 +67,7 @@ fn inspect_text_reports_drill_hole_tables_and_their_warnings() {
 
 #[test]
 fn a_malformed_samples_csv_exits_1_naming_file_line_and_column() {
-    let dir = std::env::temp_dir().join(format!("wellmesh-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("cli");
     let path = dir.join("bad.csv");
     std::fs::write(&path, "well,x,y,z,value\nA,1,2,3,1\nA,1,2,x4,1\n").unwrap();
     let out = wellmesh(&["inspect", path.to_str().unwrap()]);
@@ -121,8 +127,7 @@ fn inspect_reads_a_las_directory_with_a_locations_table() {
 
 #[test]
 fn below_detection_flags_reach_the_reader() {
-    let dir = std::env::temp_dir().join(format!("wellmesh-bd-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("bd");
     let c = dir.join("c.csv");
     let a = dir.join("a.csv");
     std::fs::write(&c, "hole_id,x,y,z\nH,0,0,100\n").unwrap();
@@ -155,8 +160,7 @@ fn below_detection_flags_reach_the_reader() {
 
 #[test]
 fn a_coordinate_beyond_any_place_on_earth_exits_1_naming_the_hole() {
-    let dir = std::env::temp_dir().join(format!("wellmesh-cli-far-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("cli-far");
     let path = dir.join("far.csv");
     // A northing with a stray exponent.
     std::fs::write(
@@ -179,8 +183,7 @@ fn a_coordinate_beyond_any_place_on_earth_exits_1_naming_the_hole() {
 #[test]
 fn wells_in_one_vertical_section_exit_1_saying_so_once() {
     // Three holes on one line in plan view: every sample lies in one vertical plane.
-    let dir = std::env::temp_dir().join(format!("wellmesh-cli-fence-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("cli-fence");
     let path = dir.join("fence.csv");
     let mut csv = String::from("well,x,y,z,value\n");
     for (w, x) in [("A", 0), ("B", 100), ("C", 200)] {

@@ -92,14 +92,14 @@ fn build_in_zones(
     // -0.0 and 0.0 are one coordinate: make them one bit pattern before sorting.
     points.par_iter_mut().for_each(|p| *p += DVec3::ZERO);
     let (lo, hi, smallest) = bounds(&points);
-    let scale = exact_scale((lo, hi), smallest, &points)?;
+    let (shift, _) = exact_shift((lo, hi));
+    let scale = exact_scale((lo, hi), shift, smallest, &points)?;
     if scale == 0 {
         return build_exact(points, (lo, hi), zones, portable, progress);
     }
     // Outside the predicates' window (see `exact_scale`): built on the points moved by
     // the exact local shift and scaled by a power of two, which changes no predicate's
     // sign, then moved back. Every step is exact, so the mesh's points are the input's.
-    let (shift, _) = exact_shift((lo, hi));
     let (up, down) = (2f64.powi(scale), 2f64.powi(-scale));
     points.par_iter_mut().for_each(|p| *p = (*p - shift) * up);
     let (lo, hi, _) = bounds(&points);
@@ -118,7 +118,7 @@ const EXPONENT_LOW: i32 = -148;
 /// predicates: products of five stay below `2^750`, far from overflow.
 const EXPONENT_HIGH: i32 = 149;
 
-/// The power of two `2^k` by which the points, after [`exact_shift`], must be scaled so that
+/// The power of two `2^k` by which the points, after [`exact_shift`] (`shift`), must be scaled so that
 /// every nonzero coordinate's binary exponent lies in `EXPONENT_LOW..=EXPONENT_HIGH`, where
 /// Shewchuk's expansions (and so `robust`) are exact: `k = 0` for anything real data holds
 /// (magnitudes from about `1e-44` to `1e45`). Scaling by a power of two is itself exact in
@@ -129,6 +129,7 @@ const EXPONENT_HIGH: i32 = 149;
 /// window is wide (about 89 orders of magnitude): no one scale fits them.
 fn exact_scale(
     (lo, hi): (DVec3, DVec3),
+    shift: DVec3,
     smallest: DVec3,
     points: &[DVec3],
 ) -> Result<i32, TetError> {
@@ -136,7 +137,6 @@ fn exact_scale(
     if points.is_empty() || !smallest.is_finite() {
         return Ok(0);
     }
-    let (shift, _) = exact_shift((lo, hi));
     let largest = (lo - shift).abs().max((hi - shift).abs()).max_element();
     if largest == 0.0 {
         // One point, repeated: too few points, said later.
