@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use glam::DVec3;
 use proptest::prelude::*;
 use wellmesh::progress::{NoProgress, Progress};
-use wellmesh::tet::{TetError, TetMesh, delaunay};
+use wellmesh::tet::{TetError, TetMesh, delaunay, delaunay_owned_without_map};
 
 /// Deterministic xorshift64* stream of `f64` in [0, 1).
 struct Rng(u64);
@@ -223,6 +223,27 @@ fn duplicate_points_are_merged_and_counted() {
     for (i, &v) in mesh.vertex_of_input.iter().enumerate() {
         assert_eq!(mesh.points[v as usize], pts[i]);
     }
+}
+
+/// `wellmesh tetrahedralize` builds without the input map: the same mesh, vertex for
+/// vertex and tetrahedron for tetrahedron, the same duplicate count, and no map.
+#[test]
+fn a_mesh_built_without_the_input_map_is_the_same_mesh() {
+    // Large enough for the parallel zones, with duplicates spread through the input.
+    let mut pts = random_points(60_000, 21);
+    for i in (0..60_000).step_by(997) {
+        pts.push(pts[i]);
+    }
+    let mapped = delaunay(&pts, &NoProgress).unwrap();
+    let bare = delaunay_owned_without_map(pts.clone(), &NoProgress).unwrap();
+    bare.validate().unwrap();
+    assert!(bare.vertex_of_input.is_empty());
+    assert_eq!(mapped.vertex_of_input.len(), pts.len());
+    assert_eq!(bare.duplicates_merged, 61);
+    assert_eq!(bare.duplicates_merged, mapped.duplicates_merged);
+    assert_eq!(bare.points, mapped.points);
+    assert!(bare.tets().eq(mapped.tets()));
+    assert!((0..bare.tet_count()).all(|t| bare.neighbours(t) == mapped.neighbours(t)));
 }
 
 #[test]

@@ -10,7 +10,7 @@ use anyhow::{Context, bail};
 use glam::DVec3;
 use wellmesh::export::tet_vtu::write_tet_vtu_file;
 use wellmesh::progress::NoProgress;
-use wellmesh::tet::delaunay_owned;
+use wellmesh::tet::delaunay_owned_without_map;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -30,7 +30,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let points = read_points(&args.points)?;
     let n_points = points.len();
     let started = Instant::now();
-    let mesh = delaunay_owned(points, &NoProgress)
+    // The VTU holds the mesh's vertices in its own order: no map from input points needed.
+    let mesh = delaunay_owned_without_map(points, &NoProgress)
         .with_context(|| format!("cannot tetrahedralize {}", args.points.display()))?;
     let seconds = started.elapsed().as_secs_f64();
     if let Some(out) = &args.output {

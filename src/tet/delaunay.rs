@@ -61,23 +61,48 @@ const SLOT_BATCH: usize = 1024;
 /// Tetrahedra searched for a worker's start in its zone.
 const ZONE_START_SEARCH: usize = 256;
 
-/// The Delaunay tetrahedralization of `points`; see [`super::delaunay`].
-pub fn build(points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh, TetError> {
+/// The Delaunay tetrahedralization of `points`; see [`super::delaunay`]. With
+/// [`InputMap::Drop`] the mesh's `vertex_of_input` is left empty.
+pub fn build(
+    points: Vec<DVec3>,
+    map: InputMap,
+    progress: &dyn Progress,
+) -> Result<TetMesh, TetError> {
     let zones = if points.len() >= PARALLEL_MIN_POINTS {
         ZONES
     } else {
         1
     };
-    build_in_zones(points, zones, false, progress)
+    build_with(points, zones, false, map, progress)
+}
+
+/// Whether a build keeps the map from input points to vertices (4 bytes per input point,
+/// alive through the construction's peak).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InputMap {
+    Keep,
+    Drop,
+}
+
+/// [`build_with`] keeping the input map.
+#[cfg(test)]
+fn build_in_zones(
+    points: Vec<DVec3>,
+    zones: usize,
+    portable: bool,
+    progress: &dyn Progress,
+) -> Result<TetMesh, TetError> {
+    build_with(points, zones, portable, InputMap::Keep, progress)
 }
 
 /// [`build`] with `zones` workers in the parallel chunks (1: all sequential), and with
 /// the insertion's portable copy only if `portable` (else the x86-64-v3 one where the
 /// processor has it; both give the same mesh, tetrahedron for tetrahedron).
-fn build_in_zones(
+fn build_with(
     mut points: Vec<DVec3>,
     zones: usize,
     portable: bool,
+    map: InputMap,
     progress: &dyn Progress,
 ) -> Result<TetMesh, TetError> {
     if points.len() > MAX_POINTS {
@@ -95,7 +120,7 @@ fn build_in_zones(
     let (shift, _) = exact_shift((lo, hi));
     let scale = exact_scale((lo, hi), shift, smallest, &points)?;
     if scale == 0 {
-        return build_exact(points, (lo, hi), zones, portable, progress);
+        return build_exact(points, (lo, hi), zones, portable, map, progress);
     }
     // Outside the predicates' window (see `exact_scale`): built on the points moved by
     // the exact local shift and scaled by a power of two, which changes no predicate's
@@ -103,7 +128,7 @@ fn build_in_zones(
     let (up, down) = (2f64.powi(scale), 2f64.powi(-scale));
     points.par_iter_mut().for_each(|p| *p = (*p - shift) * up);
     let (lo, hi, _) = bounds(&points);
-    let mut mesh = build_exact(points, (lo, hi), zones, portable, progress)?;
+    let mut mesh = build_exact(points, (lo, hi), zones, portable, map, progress)?;
     mesh.points
         .par_iter_mut()
         .for_each(|p| *p = *p * down + shift);
@@ -166,7 +191,7 @@ fn exact_scale(
     Ok(0.clamp(EXPONENT_LOW - low, EXPONENT_HIGH - high))
 }
 
-/// [`build_in_zones`] on points already checked, with `-0.0` made `0.0` and their bounding
+/// [`build_with`] on points already checked, with `-0.0` made `0.0` and their bounding
 /// box, whose nonzero coordinates (after [`exact_shift`]) lie in the exact predicates'
 /// window ([`exact_scale`] is 0).
 fn build_exact(
@@ -174,6 +199,7 @@ fn build_exact(
     bbox: (DVec3, DVec3),
     zones: usize,
     portable: bool,
+    map: InputMap,
     progress: &dyn Progress,
 ) -> Result<TetMesh, TetError> {
     // Vertices are numbered in insertion order, so the points the construction touches
@@ -185,6 +211,14 @@ fn build_exact(
         rounds,
     } = insertion_order(&points, bbox);
     let duplicates_merged = vertex_of_input.len() - order.len();
+    let vertex_of_input = match map {
+        InputMap::Keep => vertex_of_input,
+        InputMap::Drop => {
+            // Freed now, not when the build returns.
+            drop(vertex_of_input);
+            Vec::new()
+        }
+    };
     if order.len() < 4 {
         return Err(TetError::TooFewPoints {
             distinct: order.len(),
@@ -424,8 +458,6 @@ struct Worker {
     rng: u64,
     /// Vertices of the current chunk this worker gave up (for the sequential pass).
     deferred: Vec<u32>,
-    /// Vertices of the current chunk to insert, in insertion order.
-    todo: Vec<u32>,
 }
 
 /// The sign of `det()` when it lies beyond the static bound `eps` (never when the bound
@@ -664,7 +696,6 @@ impl Worker {
             star_hint: false,
             rng: seed,
             deferred: Vec::new(),
-            todo: Vec::new(),
         }
     }
 
@@ -1284,7 +1315,7 @@ impl<'a> Builder<'a> {
     /// pass, a second one over the vertices it gave up (cut across another axis), and
     /// the rest sequentially, in order.
     fn insert_parallel(&mut self, range: Range<u32>, first: &[u32; 4]) {
-        let ids: Vec<u32> = range.filter(|v| !first.contains(v)).collect();
+        let ids = range.filter(|v| !first.contains(v));
         let (mut rest, axis) = self.zoned_pass(ids, None);
         // The vertices given up lie near the cut: split them again across another axis.
         // Not the longest of their box whatever it is: the few given up far from the cut
@@ -1292,7 +1323,7 @@ impl<'a> Builder<'a> {
         // and in the last BRIO round, whose pieces are about half as wide as they are
         // long, the second cut fell on the first one and gave up ~99% again.
         if rest.len() >= SECOND_PASS_MIN {
-            rest = self.zoned_pass(rest, Some(axis)).0;
+            rest = self.zoned_pass(rest.iter().copied(), Some(axis)).0;
         }
         for v in rest {
             self.insert_sequential(v);
@@ -1302,29 +1333,40 @@ impl<'a> Builder<'a> {
     /// One parallel pass over `ids` (increasing): split into slabs of equal counts across
     /// the longest axis of their bounding box other than `not_across`, one worker per
     /// slab. Returns the vertices the workers gave up, increasing, and the axis cut.
-    fn zoned_pass(&mut self, ids: Vec<u32>, not_across: Option<usize>) -> (Vec<u32>, usize) {
+    ///
+    /// `ids` is read several times and never collected: each worker walks all of it and
+    /// takes the vertices of its slab, so a chunk costs no list of its vertices (at
+    /// 2^17 vertices, 0.5 MiB of ids and 1 MiB of coordinates that stayed resident in
+    /// the allocator's heap through the construction's peak; `docs/tet.md`, *Memory*).
+    fn zoned_pass<I>(&mut self, ids: I, not_across: Option<usize>) -> (Vec<u32>, usize)
+    where
+        I: Iterator<Item = u32> + Clone + Sync,
+    {
         let pts = self.g.pts;
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        for &v in &ids {
+        let mut count = 0;
+        for v in ids.clone() {
             lo = lo.min(pts[v as usize]);
             hi = hi.max(pts[v as usize]);
+            count += 1;
         }
         let mut extent = hi - lo;
         if let Some(a) = not_across {
             extent[a] = f64::NEG_INFINITY;
         }
         let axis = extent.max_position();
-        let mut coords: Vec<f64> = ids.iter().map(|&v| pts[v as usize][axis]).collect();
         let k = self.workers.len();
+        let coordinates = ids.clone().map(|v| pts[v as usize][axis]);
         let mut cuts = vec![f64::NEG_INFINITY];
         for z in 1..k {
-            let at = coords.len() * z / k;
-            let (_, c, _) = coords.select_nth_unstable_by(at, f64::total_cmp);
-            cuts.push(*c);
+            cuts.push(nth_smallest(
+                coordinates.clone(),
+                (lo[axis], hi[axis]),
+                count * z / k,
+            ));
         }
         cuts.push(f64::INFINITY);
-        drop(coords);
         let zones: Vec<Zone> = (0..k)
             .map(|z| Zone {
                 all: false,
@@ -1333,51 +1375,49 @@ impl<'a> Builder<'a> {
                 hi: cuts[z + 1],
             })
             .collect();
-        for w in &mut self.workers {
-            w.todo.clear();
-            w.deferred.clear();
+        // Each slab's vertex count and first vertex.
+        let mut counts = vec![0usize; k];
+        let mut firsts = vec![None; k];
+        for v in ids.clone() {
+            let z = cuts[1..k].partition_point(|&cut| cut <= pts[v as usize][axis]);
+            counts[z] += 1;
+            firsts[z].get_or_insert(v);
         }
-        for &v in &ids {
-            let c = pts[v as usize][axis];
-            let z = cuts[1..k].partition_point(|&cut| cut <= c);
-            self.workers[z].todo.push(v);
+        for w in &mut self.workers {
+            w.deferred.clear();
         }
         // Slots: ~6.7 new tetrahedra per vertex on average; an insertion finding too few
         // is simply done in the sequential pass.
-        for z in 0..k {
-            let want = self.workers[z].todo.len() * 7 + SLOT_BATCH;
+        for (z, &n) in counts.iter().enumerate() {
+            let want = n * 7 + SLOT_BATCH;
             let have = self.workers[z].spare();
             if have < want {
                 self.provide(z, want - have);
             }
         }
         // Each worker starts from a tetrahedron of its own zone near its first vertex,
-        // found while nothing else runs.
+        // found while nothing else runs; a worker without one gives up its slab.
+        let mut started = vec![false; k];
         for (z, &zone) in zones.iter().enumerate() {
-            let start = match self.workers[z].todo.first() {
-                Some(&v) => self.zone_start(z, v, zone),
-                None => None,
-            };
-            if let Some(t) = start {
+            if let Some(t) = firsts[z].and_then(|v| self.zone_start(z, v, zone)) {
                 self.workers[z].place(t);
-            } else {
-                let w = &mut self.workers[z];
-                let todo = std::mem::take(&mut w.todo);
-                w.deferred.extend(todo);
+                started[z] = true;
             }
         }
-        let (g, cells) = (&self.g, &self.cells[..]);
+        let (g, cells, ids) = (&self.g, &self.cells[..], &ids);
         self.workers
             .par_iter_mut()
             .zip(zones.par_iter())
-            .for_each(|(w, &zone)| {
-                let todo = std::mem::take(&mut w.todo);
-                for &v in &todo {
-                    if w.insert(g, cells, v, zone).is_err() {
+            .zip(started.par_iter())
+            .for_each(|((w, &zone), &started)| {
+                for v in ids.clone() {
+                    if !zone.owns_vertex(g.coords, v) {
+                        continue;
+                    }
+                    if !started || w.insert(g, cells, v, zone).is_err() {
                         w.deferred.push(v);
                     }
                 }
-                w.todo = todo;
             });
         let mut rest: Vec<u32> = self
             .workers
@@ -1418,6 +1458,37 @@ impl<'a> Builder<'a> {
         }
         None
     }
+}
+
+/// Number of bins of [`nth_smallest`]'s histogram.
+const SELECT_BINS: usize = 4096;
+
+/// The `at`-th smallest (from 0) of the values `values` yields, all in `lo..=hi`: the
+/// value `select_nth_unstable` would put at `at`, found without collecting the values.
+/// One pass counts them in equal bins over `lo..=hi`; a second collects those of the
+/// bin holding rank `at` (a few hundred for a chunk of 2^17 vertices) and selects among
+/// them. Values in one bin are kept whatever their spread, so clustered input costs at
+/// worst the list of all values.
+fn nth_smallest(values: impl Iterator<Item = f64> + Clone, (lo, hi): (f64, f64), at: usize) -> f64 {
+    let width = hi - lo;
+    let per_unit = if width > 0.0 {
+        SELECT_BINS as f64 / width
+    } else {
+        0.0
+    };
+    let bin = |x: f64| (((x - lo) * per_unit) as usize).min(SELECT_BINS - 1);
+    let mut counts = vec![0usize; SELECT_BINS];
+    for x in values.clone() {
+        counts[bin(x)] += 1;
+    }
+    let mut below = 0;
+    let mut b = 0;
+    while below + counts[b] <= at {
+        below += counts[b];
+        b += 1;
+    }
+    let mut in_bin: Vec<f64> = values.filter(|&x| bin(x) == b).collect();
+    *in_bin.select_nth_unstable_by(at - below, f64::total_cmp).1
 }
 
 /// Strips ghosts and free slots in place (moving tetrahedra from the end into holes) and
@@ -1503,6 +1574,34 @@ fn x86_64_v3_detected() -> bool {
 mod tests {
     use super::*;
     use crate::progress::NoProgress;
+
+    /// The cut of a parallel pass is the value a full selection finds, whatever the
+    /// spread: uniform, clustered into one bin, repeated, all equal, negative.
+    #[test]
+    fn nth_smallest_is_the_selected_value_without_collecting_all() {
+        let mut state = 0x9E37_79B9_7F4A_7C15;
+        let uniform: Vec<f64> = (0..5000).map(|_| xorshift(&mut state)).collect();
+        let mut clustered: Vec<f64> = (0..5000)
+            .map(|_| 1.0 + xorshift(&mut state) * 1e-9)
+            .collect();
+        clustered.extend([0.0, 1e6]);
+        let repeated: Vec<f64> = (0..5000).map(|i| f64::from(i % 7) * 50.0 - 100.0).collect();
+        let equal = vec![-3.5; 100];
+        for values in [uniform, clustered, repeated, equal] {
+            let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let mut sorted = values.clone();
+            sorted.sort_by(f64::total_cmp);
+            for at in [0, 1, values.len() / 3, values.len() / 2, values.len() - 1] {
+                assert_eq!(
+                    nth_smallest(values.iter().copied(), (lo, hi), at),
+                    sorted[at],
+                    "rank {at} of {} values in {lo}..={hi}",
+                    values.len()
+                );
+            }
+        }
+    }
 
     #[test]
     fn never_written_and_freed_slots_read_as_free_and_tetrahedra_do_not() {

@@ -20,6 +20,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::progress::Progress;
+use delaunay::InputMap;
 
 /// Marks a face on the convex hull in [`TetMesh::neighbours`].
 pub const NO_NEIGHBOUR: u32 = u32::MAX;
@@ -35,7 +36,8 @@ pub const FACE_OUTWARD: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 
 /// `neighbours(t)[i]` is the tetrahedron across the face opposite `tet(t)[i]`, encoded
 /// `t2 * 4 + j` with `j` the index of the same face in `t2` (the vertex of `t2` not on
 /// it), or [`NO_NEIGHBOUR`] on the hull. `vertex_of_input` maps each input point to its
-/// vertex (duplicates share one).
+/// vertex (duplicates share one); it is empty in a mesh built by
+/// [`delaunay_owned_without_map`].
 ///
 /// The tetrahedra are stored as the Delaunay construction builds them, 32 bytes each with
 /// vertices and links side by side, so a built mesh is handed over without copying its
@@ -182,13 +184,25 @@ pub enum TetError {
 /// 4 distinct), [`TetError::AllCoplanar`], [`TetError::TooManyPoints`],
 /// [`TetError::Cancelled`].
 pub fn delaunay(points: &[DVec3], progress: &dyn Progress) -> Result<TetMesh, TetError> {
-    delaunay::build(points.to_vec(), progress)
+    delaunay::build(points.to_vec(), InputMap::Keep, progress)
 }
 
 /// [`delaunay`] taking ownership of the points, so their buffer becomes the mesh's
 /// `points` (saves one copy of the input at large sizes).
 pub fn delaunay_owned(points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh, TetError> {
-    delaunay::build(points, progress)
+    delaunay::build(points, InputMap::Keep, progress)
+}
+
+/// [`delaunay_owned`] for a caller that never maps input points to vertices (one that
+/// writes the mesh as it is, such as `wellmesh tetrahedralize`): the mesh's
+/// `vertex_of_input` is left empty, which saves 4 bytes per input point at the
+/// construction's peak (3.8 MiB at 1M points). `duplicates_merged` still counts the
+/// merged points; the mesh is the same, tetrahedron for tetrahedron.
+pub fn delaunay_owned_without_map(
+    points: Vec<DVec3>,
+    progress: &dyn Progress,
+) -> Result<TetMesh, TetError> {
+    delaunay::build(points, InputMap::Drop, progress)
 }
 
 impl TetMesh {

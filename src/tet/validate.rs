@@ -9,9 +9,11 @@ use std::collections::HashMap;
 use super::predicates::{self, Sign};
 use super::{FACE_OUTWARD, NO_NEIGHBOUR, TetMesh};
 
-/// The first defect found, described for a human.
+/// The first defect found, described for a human. An empty `vertex_of_input` (a mesh
+/// built without the map) is not checked.
 pub fn validate(mesh: &TetMesh) -> Result<(), String> {
     let n_points = mesh.points.len();
+    let mapped = !mesh.vertex_of_input.is_empty();
     if let Some(i) = mesh
         .vertex_of_input
         .iter()
@@ -19,7 +21,7 @@ pub fn validate(mesh: &TetMesh) -> Result<(), String> {
     {
         return Err(format!("input point {i} maps to a vertex out of range"));
     }
-    if mesh.vertex_of_input.len() != n_points + mesh.duplicates_merged {
+    if mapped && mesh.vertex_of_input.len() != n_points + mesh.duplicates_merged {
         return Err(format!(
             "{} input points but {} vertices and {} merged duplicates",
             mesh.vertex_of_input.len(),
