@@ -77,6 +77,12 @@ fn tetrahedralize_prints_one_line_and_writes_a_readable_vtu() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    // Piped, as in CI: no progress bar, nothing on standard error.
+    assert!(
+        out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let stdout = String::from_utf8(out.stdout).unwrap();
     let lines: Vec<&str> = stdout.lines().collect();
     assert_eq!(lines.len(), 1, "{stdout}");

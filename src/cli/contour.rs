@@ -3,17 +3,15 @@
 //!
 //! Invariant: the files written and the JSON printed come from one `contour::run` result,
 //! so the summary's figures are those of the triangles in the GLB.
-use std::io::IsTerminal;
 use std::process::ExitCode;
 
 use anyhow::Context;
 use glam::DVec3;
-use indicatif::{ProgressBar, ProgressStyle};
 use wellmesh::contour::{self, Anisotropy, ContourRequest, GridSource, UnknownMode};
 use wellmesh::dmt::{Method, Placement};
-use wellmesh::progress::Progress;
 use wellmesh::wells::{ReadReport, SampleSet};
 
+use super::Bar;
 use super::grid_input::GridArgs;
 use super::input::InputArgs;
 use super::outputs::OutputArgs;
@@ -121,39 +119,6 @@ fn parse_triple(text: &str) -> anyhow::Result<DVec3> {
     match parts.as_slice() {
         &[x, y, z] => Ok(DVec3::new(x, y, z)),
         _ => anyhow::bail!("--anisotropy {text:?}: expected three numbers SX,SY,SZ"),
-    }
-}
-
-/// A progress bar on standard error when it is a terminal; silent otherwise.
-struct Bar(Option<ProgressBar>);
-
-impl Bar {
-    fn new(quiet: bool) -> Self {
-        if quiet || !std::io::stderr().is_terminal() {
-            return Bar(None);
-        }
-        let bar = ProgressBar::new(100);
-        bar.set_style(
-            ProgressStyle::with_template("{spinner} {msg:24} [{bar:30}] {percent:>3}% {elapsed}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar())
-                .progress_chars("=> "),
-        );
-        Bar(Some(bar))
-    }
-
-    fn finish(&self) {
-        if let Some(bar) = &self.0 {
-            bar.finish_and_clear();
-        }
-    }
-}
-
-impl Progress for Bar {
-    fn report(&self, stage: &str, fraction: f64) {
-        if let Some(bar) = &self.0 {
-            bar.set_message(stage.to_string());
-            bar.set_position((fraction.clamp(0.0, 1.0) * 100.0) as u64);
-        }
     }
 }
 

@@ -9,8 +9,9 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use glam::DVec3;
 use wellmesh::export::tet_vtu::write_tet_vtu_file;
-use wellmesh::progress::NoProgress;
 use wellmesh::tet::delaunay_owned_without_map;
+
+use super::Bar;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -24,6 +25,9 @@ pub struct Args {
     /// Print the result as one JSON object instead of the `points N tets T seconds S` line.
     #[arg(long)]
     pub json: bool,
+    /// No progress bar, even on a terminal (there is none when standard error is not one).
+    #[arg(short, long)]
+    pub quiet: bool,
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
@@ -31,8 +35,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let n_points = points.len();
     let started = Instant::now();
     // The VTU holds the mesh's vertices in its own order: no map from input points needed.
-    let mesh = delaunay_owned_without_map(points, &NoProgress)
-        .with_context(|| format!("cannot tetrahedralize {}", args.points.display()))?;
+    let bar = Bar::new(args.quiet);
+    let mesh = delaunay_owned_without_map(points, &bar);
+    bar.finish();
+    let mesh = mesh.with_context(|| format!("cannot tetrahedralize {}", args.points.display()))?;
     let seconds = started.elapsed().as_secs_f64();
     if let Some(out) = &args.output {
         write_tet_vtu_file(&mesh, out)
