@@ -1335,9 +1335,10 @@ impl<'a> Builder<'a> {
     /// slab. Returns the vertices the workers gave up, increasing, and the axis cut.
     ///
     /// `ids` is read several times and never collected: each worker walks all of it and
-    /// takes the vertices of its slab, so a chunk costs no list of its vertices (at
-    /// 2^17 vertices, 0.5 MiB of ids and 1 MiB of coordinates that stayed resident in
-    /// the allocator's heap through the construction's peak; `docs/tet.md`, *Memory*).
+    /// takes the vertices of its slab, and the cut is found by [`nth_smallest`]. The
+    /// lists this replaces (at 2^17 vertices, 2 MiB of ids, coordinates and per-worker
+    /// lists) stayed resident in the allocator's heap through the construction's peak
+    /// (`docs/tet.md`, *Parallel insertion*).
     fn zoned_pass<I>(&mut self, ids: I, not_across: Option<usize>) -> (Vec<u32>, usize)
     where
         I: Iterator<Item = u32> + Clone + Sync,
@@ -1468,7 +1469,8 @@ const SELECT_BINS: usize = 4096;
 /// One pass counts them in equal bins over `lo..=hi`; a second collects those of the
 /// bin holding rank `at` (a few hundred for a chunk of 2^17 vertices) and selects among
 /// them. Values in one bin are kept whatever their spread, so clustered input costs at
-/// worst the list of all values.
+/// worst the list of all values. `at` must be below the number of values (a parallel
+/// pass has at least `SECOND_PASS_MIN` vertices).
 fn nth_smallest(values: impl Iterator<Item = f64> + Clone, (lo, hi): (f64, f64), at: usize) -> f64 {
     let width = hi - lo;
     let per_unit = if width > 0.0 {

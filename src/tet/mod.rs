@@ -187,8 +187,8 @@ pub fn delaunay(points: &[DVec3], progress: &dyn Progress) -> Result<TetMesh, Te
     delaunay::build(points.to_vec(), InputMap::Keep, progress)
 }
 
-/// [`delaunay`] taking ownership of the points, so their buffer becomes the mesh's
-/// `points` (saves one copy of the input at large sizes).
+/// [`delaunay`] taking ownership of the points, which are freed once copied in insertion
+/// order (no copy of the input beside the caller's, at large sizes 24 bytes per point).
 pub fn delaunay_owned(points: Vec<DVec3>, progress: &dyn Progress) -> Result<TetMesh, TetError> {
     delaunay::build(points, InputMap::Keep, progress)
 }
