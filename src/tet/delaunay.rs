@@ -1376,13 +1376,18 @@ impl<'a> Builder<'a> {
                 hi: cuts[z + 1],
             })
             .collect();
-        // Each slab's vertex count and first vertex.
+        // Each slab's vertex count and first vertex; a vertex's slab is the zone that owns
+        // it, as the workers decide below.
         let mut counts = vec![0usize; k];
         let mut firsts = vec![None; k];
         for v in ids.clone() {
-            let z = cuts[1..k].partition_point(|&cut| cut <= pts[v as usize][axis]);
-            counts[z] += 1;
-            firsts[z].get_or_insert(v);
+            if let Some(z) = zones
+                .iter()
+                .position(|zone| zone.owns_vertex(self.g.coords, v))
+            {
+                counts[z] += 1;
+                firsts[z].get_or_insert(v);
+            }
         }
         for w in &mut self.workers {
             w.deferred.clear();
