@@ -172,6 +172,36 @@ fn large_sets_built_in_parallel_zones_are_exact_and_independent_of_the_origin() 
     assert_eq!(tet_set(&local, DVec3::ZERO), tet_set(&utm, offset));
 }
 
+/// Wells with jittered collars at UTM coordinates (as `gen_points.py utm-wells` makes
+/// them): every co-spherical tie is two samples on one well and two on another, broken by
+/// the construction's shortcut for such ties. The mesh is the Delaunay mesh of the
+/// general perturbation (`validate` tests each face with it; debug builds also compare
+/// each tie's answer), the same on one thread as on several.
+#[test]
+fn jittered_utm_wells_give_the_delaunay_mesh_of_the_general_tie_break() {
+    let mut rng = Rng(0x7e11_5eed);
+    let mut pts = Vec::new();
+    for i in 0..14 {
+        for j in 0..14 {
+            let x = 500_000.0 + i as f64 * 50.0 + (rng.next_f64() - 0.5) * 6.0;
+            let y = 6_500_000.0 + j as f64 * 50.0 + (rng.next_f64() - 0.5) * 6.0;
+            for k in 0..40 {
+                pts.push(DVec3::new(x, y, 300.0 - k as f64));
+            }
+        }
+    }
+    let mesh = delaunay(&pts, &NoProgress).unwrap();
+    mesh.validate().unwrap();
+    assert_eq!(mesh.points.len(), pts.len());
+    let serial = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| delaunay(&pts, &NoProgress))
+        .unwrap();
+    assert_eq!(tet_set(&mesh, DVec3::ZERO), tet_set(&serial, DVec3::ZERO));
+}
+
 /// The benchmark sizes, validated in full (about a minute):
 /// `cargo test --release --test tet_delaunay million -- --ignored`.
 #[test]

@@ -13,7 +13,7 @@ use std::cmp::Ordering;
 use std::ops::Range;
 use std::sync::atomic::Ordering::Relaxed;
 
-use super::exact_int::Grid;
+use super::exact_int::{self, Grid};
 use super::predicates::{self, Sign};
 use super::sort::{InsertionOrder, bounds, insertion_order, lex_ranks};
 use super::{Cell, FACE_OUTWARD, NO_NEIGHBOUR, TetError, TetMesh, load4};
@@ -543,7 +543,9 @@ impl Geometry<'_> {
     }
 
     /// [`predicates::insphere`] of four vertices and the point `pe` (`GRID` as in
-    /// [`Geometry::orient`]).
+    /// [`Geometry::orient`]). On a grid, a tie of vertical wells comes back already broken
+    /// by the symbolic perturbation (never [`Sign::Zero`]): see
+    /// [`Geometry::insphere_undecided`].
     #[inline(always)]
     fn insphere<const GRID: bool>(&self, [a, b, c, d]: [u32; 4], pe: DVec3) -> Sign {
         let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
@@ -563,16 +565,34 @@ impl Geometry<'_> {
     }
 
     /// What [`Geometry::insphere`]'s first bound leaves: the per-call filter and the exact
-    /// test (integers on a grid). Out of line, and the points loaded again here, so the
+    /// test. On a grid, first a tie of vertical wells ([`exact_int::vertical_wells_tie`]:
+    /// every tie the bound leaves on UTM well data), answered with the perturbation's sign
+    /// ([`Grid::wells_tie_inside`]: one orientation in the plane, where
+    /// [`Geometry::perturbed_tie`] takes one or two in space, the ranks and a call); then
+    /// the integers. Out of line, and the points loaded again here, so the
     /// kernel need not keep them past its determinant: it had stored them to the stack
     /// and loaded them back on every test.
     #[inline(never)]
     fn insphere_undecided<const GRID: bool>(&self, [a, b, c, d]: [u32; 4], pe: DVec3) -> Sign {
         let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
         if GRID {
-            return Sign::of(f64::from(
-                self.grid_of_kernel().insphere(pa, pb, pc, pd, pe),
-            ));
+            let g = self.grid_of_kernel();
+            let p = [pa, pb, pc, pd];
+            if let Some(tie) = exact_int::vertical_wells_tie(p, pe) {
+                // Broken here already, as `perturbed_tie` would break it.
+                let inside = g.wells_tie_inside(p, pe, tie);
+                debug_assert_eq!(
+                    inside,
+                    predicates::in_sphere_perturbed(p, pe),
+                    "a tie of wells is broken as the general tie-break does: {p:?} {pe}"
+                );
+                return if inside {
+                    Sign::Positive
+                } else {
+                    Sign::Negative
+                };
+            }
+            return Sign::of(f64::from(g.insphere(pa, pb, pc, pd, pe)));
         }
         match predicates::insphere_filter(pa, pb, pc, pd, pe) {
             Some(s) => s,

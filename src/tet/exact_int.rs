@@ -409,12 +409,10 @@ impl Grid {
     }
 
     /// Exact sign of `insphere` (module conventions of `predicates`) of five points of the
-    /// set.
+    /// set. (Ties of vertical wells, the common ones on well data, are cheaper to find
+    /// first with [`vertical_wells_tie`] on the coordinates: the construction does.)
     #[inline(always)]
     pub fn insphere(&self, a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> i32 {
-        if !self.insphere_small && concyclic_on_vertical_lines([a, b, c, d], e) {
-            return 0;
-        }
         let s = self.scale;
         let g = |q: DVec3| [(q.x * s) as i64, (q.y * s) as i64, (q.z * s) as i64];
         let ge = g(e);
@@ -431,32 +429,198 @@ impl Grid {
             insphere_wide(v)
         }
     }
+
+    /// The symbolic perturbation's answer (`predicates::in_sphere_perturbed`: is `e`
+    /// inside?) for a tie of vertical wells among the points `p` of a positive tetrahedron
+    /// and `e`, found by [`vertical_wells_tie`] (`tie.at` = `[j, l, i, m]`). One
+    /// orientation in the plane instead of the general tie-break's orientations in space.
+    ///
+    /// The general tie-break visits the five points from the lexicographically largest
+    /// (`x`, then `y`, then `z`) down, answering with the sign of the orientation of `p`
+    /// with the visited point replaced by `e` (outside when `e` is reached first), the
+    /// first that is not zero:
+    /// - Replacing `p[m]` leaves `j`, `l`, `i` and `e` on two vertical lines: coplanar,
+    ///   zero, so `m` is passed over whatever its rank.
+    /// - Of the others, the largest is on the larger of the two lines (in `x`, then `y`:
+    ///   they differ), the deeper or shallower by `z`. If it is `e`: outside.
+    /// - Otherwise it is `p[k]`, and `p` with `p[k]` replaced by `e` has two points `u`,
+    ///   `w` on one vertical line and two others `a`, `d`; with `w - u = (0, 0, dz)`,
+    ///   expanding the determinant along that row gives `orient(u, w, a, d) = dz *
+    ///   orient_xy(u, a, d)`. With `A`, `B`, `M` the lines of `j` and `l`, of `i` and `e`,
+    ///   and of `m`, and `O = orient_xy(A, B, M)`, the three cases are, as `(u, w, a, d)`
+    ///   in `p`'s positions and the sign of their order (a cyclic shift of three keeps
+    ///   it, a swap flips it):
+    ///   - `k = i`: `(j, l, i, m)`, `(z_l - z_j) O`, times the tie's parity;
+    ///   - `k = j`: `(i, j, l, m)` with `e` at `j`, `(z_e - z_i) (-O)`, the same parity;
+    ///   - `k = l`: `(i, l, j, m)` with `e` at `l`, `(z_e - z_i) (-O)`, the opposite one.
+    ///
+    /// `dz` is never zero (distinct points). When `O` is, every later step is zero too
+    /// (the same three lines), and the walk ends at `e`: outside.
+    ///
+    /// The order is read off the coordinates: with no `-0.0` and no NaN among them it is
+    /// `f64::total_cmp`'s, the order of the construction's lexicographic ranks.
+    #[inline]
+    pub fn wells_tie_inside(&self, p: [DVec3; 4], e: DVec3, tie: WellsTie) -> bool {
+        let [j, l, i, m] = tie.at;
+        let rise = |below: f64, above: f64| if above > below { 1 } else { -1 };
+        let a = p[j];
+        let along = if (a.x > e.x) | ((a.x == e.x) & (a.y > e.y)) {
+            // `k` is `j` or `l`.
+            if p[j].z > p[l].z {
+                -rise(p[i].z, e.z)
+            } else {
+                rise(p[i].z, e.z)
+            }
+        } else if e.z > p[i].z {
+            return false;
+        } else {
+            rise(p[j].z, p[l].z)
+        };
+        self.orient_xy(a, e, p[m]) * along * tie.parity > 0
+    }
+
+    /// Exact sign of the orientation of `a`, `b`, `c` seen from above, their `z` ignored:
+    /// of `(b - a) x (c - a)` along `z`, positive counter-clockwise. The grid's integers
+    /// are below 2^47, so the products of differences fit in i128.
+    #[inline]
+    pub fn orient_xy(&self, a: DVec3, b: DVec3, c: DVec3) -> i32 {
+        let s = self.scale;
+        let g = |q: DVec3| [(q.x * s) as i64, (q.y * s) as i64];
+        let (a, b, c) = (g(a), g(b), g(c));
+        let d = |q: [i64; 2], k: usize| i128::from(q[k] - a[k]);
+        (d(b, 0) * d(c, 1) - d(b, 1) * d(c, 0)).signum() as i32
+    }
 }
 
-/// [`concyclic_by_construction`] for lines parallel to the vertical axis (wells), the
-/// common case, on the coordinates themselves and without branches (whether it holds is
-/// unpredictable). `e` is the fifth point. Exact for points of a [`Grid`]: float equality
-/// is exact, and so is the sum of two coordinates (a multiple of the unit below 2^48 units,
-/// which a double holds).
-fn concyclic_on_vertical_lines(p: [DVec3; 4], e: DVec3) -> bool {
-    let on_e = p.map(|q| (q.x == e.x) & (q.y == e.y));
-    let mut found = false;
-    for (j, l, i1, i2) in [
-        (0, 1, 2, 3),
-        (0, 2, 1, 3),
-        (0, 3, 1, 2),
-        (1, 2, 0, 3),
-        (1, 3, 0, 2),
-        (2, 3, 0, 1),
-    ] {
-        // `j`, `l` on one vertical line other than `e`'s, and `i` on `e`'s, with equal
-        // depth sums.
-        let pair = (p[j].x == p[l].x) & (p[j].y == p[l].y) & !on_e[j];
-        let sum = p[j].z + p[l].z;
-        found |= pair & on_e[i1] & (sum == p[i1].z + e.z);
-        found |= pair & on_e[i2] & (sum == p[i2].z + e.z);
+/// The pairs `(j, l)` of four points that [`vertical_wells_tie`] tries on one vertical
+/// line, each with the other two `(i1, i2)`, one of which must share `e`'s line.
+const WELL_PAIRS: [(usize, usize, usize, usize); 6] = [
+    (0, 1, 2, 3),
+    (0, 2, 1, 3),
+    (0, 3, 1, 2),
+    (1, 2, 0, 3),
+    (1, 3, 0, 2),
+    (2, 3, 0, 1),
+];
+
+/// A tie of vertical wells as [`vertical_wells_tie`] finds it: the positions `[j, l, i,
+/// m]` and the sign of that sequence as a permutation of `0..4` (-1 when odd).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WellsTie {
+    pub at: [usize; 4],
+    pub parity: i32,
+}
+
+/// The ties [`vertical_wells_tie`] tells apart: for each of [`WELL_PAIRS`], `i` first the
+/// one, then the other of the two left.
+const WELLS_TIES: [WellsTie; 12] = {
+    let mut ties = [WellsTie {
+        at: [0; 4],
+        parity: 1,
+    }; 12];
+    let mut c = 0;
+    while c < 12 {
+        let (j, l, i1, i2) = WELL_PAIRS[c / 2];
+        let at = if c % 2 == 0 {
+            [j, l, i1, i2]
+        } else {
+            [j, l, i2, i1]
+        };
+        let mut inversions = 0;
+        let mut x = 0;
+        while x < 4 {
+            let mut y = x + 1;
+            while y < 4 {
+                if at[x] > at[y] {
+                    inversions += 1;
+                }
+                y += 1;
+            }
+            x += 1;
+        }
+        ties[c] = WellsTie {
+            at,
+            parity: if inversions % 2 == 0 { 1 } else { -1 },
+        };
+        c += 1;
     }
-    found
+    ties
+};
+
+/// For each position `i`, the three others.
+const OTHERS: [[usize; 3]; 4] = [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]];
+
+/// For `i` alone on `e`'s line: the index in [`WELLS_TIES`] of `[j, l, i, m]` for each
+/// pair of [`OTHERS`]`[i]`, `(o0, o1)`, `(o0, o2)`, `(o1, o2)`.
+const ONE_ON_E: [[usize; 3]; 4] = {
+    let mut table = [[0; 3]; 4];
+    let mut i = 0;
+    while i < 4 {
+        let o = OTHERS[i];
+        let pairs = [(o[0], o[1], o[2]), (o[0], o[2], o[1]), (o[1], o[2], o[0])];
+        let mut n = 0;
+        while n < 3 {
+            let (j, l, m) = pairs[n];
+            let mut c = 0;
+            while c < 12 {
+                let at = WELLS_TIES[c].at;
+                if at[0] == j && at[1] == l && at[2] == i && at[3] == m {
+                    table[i][n] = c;
+                }
+                c += 1;
+            }
+            n += 1;
+        }
+        i += 1;
+    }
+    table
+};
+
+/// A co-spherical tie of vertical wells among four points `p` and a fifth `e`, found on
+/// the coordinates themselves: two of `p`, at positions `j` and `l`, on one vertical line
+/// other than `e`'s, a third, at `i`, on `e`'s line, and equal depth sums `z_j + z_l = z_i
+/// + z_e`. Then `j`, `l`, `i` and `e` lie on one circle (as
+/// [`concyclic_by_construction`] explains), so the five points lie on one sphere whatever
+/// the fourth point, at `m`, is. Returns the first of [`WELLS_TIES`] that holds.
+///
+/// Exact for points of a [`Grid`] with no `-0.0` (the construction's points): equal
+/// coordinates are equal bit patterns then, and the sum of two coordinates is exact (a
+/// multiple of the unit below 2^48 units, which a double holds) and never `-0.0`. The
+/// cases are tested without branches (which holds is unpredictable) into a bit mask, on
+/// the coordinates' bits: a float equality costs twice the instructions (its test for
+/// NaN). With one point on `e`'s line (the usual case: a second one there is the fourth
+/// point on the query's well) only the three pairs of the other three are tested, else
+/// all 12 cases.
+#[inline]
+pub fn vertical_wells_tie(p: [DVec3; 4], e: DVec3) -> Option<WellsTie> {
+    let (ex, ey) = (e.x.to_bits(), e.y.to_bits());
+    let line = p.map(|q| (q.x.to_bits(), q.y.to_bits()));
+    let on_e = line.map(|(x, y)| (x ^ ex) | (y ^ ey) == 0);
+    let with_e = p.map(|q| (q.z + e.z).to_bits());
+    let on_e_mask = on_e
+        .iter()
+        .enumerate()
+        .fold(0u32, |mask, (k, &on)| mask | u32::from(on) << k);
+    if on_e_mask.count_ones() == 1 {
+        // One point on `e`'s line, `i`, and the pair among the three others.
+        let i = on_e_mask.trailing_zeros() as usize;
+        let [o0, o1, o2] = OTHERS[i];
+        let pair = |j: usize, l: usize| {
+            ((line[j].0 ^ line[l].0) | (line[j].1 ^ line[l].1) == 0)
+                & ((p[j].z + p[l].z).to_bits() == with_e[i])
+        };
+        let found =
+            u32::from(pair(o0, o1)) | u32::from(pair(o0, o2)) << 1 | u32::from(pair(o1, o2)) << 2;
+        return (found != 0).then(|| WELLS_TIES[ONE_ON_E[i][found.trailing_zeros() as usize]]);
+    }
+    let mut found = 0u32;
+    for (c, &(j, l, i1, i2)) in WELL_PAIRS.iter().enumerate() {
+        let pair = ((line[j].0 ^ line[l].0) | (line[j].1 ^ line[l].1) == 0) & !on_e[j];
+        let sum = (p[j].z + p[l].z).to_bits();
+        found |= u32::from(pair & on_e[i1] & (sum == with_e[i1])) << (2 * c);
+        found |= u32::from(pair & on_e[i2] & (sum == with_e[i2])) << (2 * c + 1);
+    }
+    (found != 0).then(|| WELLS_TIES[found.trailing_zeros() as usize])
 }
 
 /// Are four of the five points concyclic by construction, which makes their insphere
@@ -667,7 +831,7 @@ mod tests {
                 };
                 assert!(concyclic_by_construction(&tie), "axis {k}: {tie:?}");
                 assert_eq!(
-                    concyclic_on_vertical_lines(tie.map(as_point), DVec3::ZERO),
+                    vertical_wells_tie(tie.map(as_point), DVec3::ZERO).is_some(),
                     k == 2,
                     "axis {k}: {tie:?}"
                 );
@@ -675,10 +839,7 @@ mod tests {
                 assert_eq!(robust_insphere(with_e(tie)), 0, "axis {k}: {tie:?}");
                 let miss = [on_e, p, near, other];
                 assert!(!concyclic_by_construction(&miss), "axis {k}: {miss:?}");
-                assert!(!concyclic_on_vertical_lines(
-                    miss.map(as_point),
-                    DVec3::ZERO
-                ));
+                assert!(vertical_wells_tie(miss.map(as_point), DVec3::ZERO).is_none());
                 let sign = insphere_wide(miss);
                 assert_eq!(sign, robust_insphere(with_e(miss)), "axis {k}: {miss:?}");
                 nonzero_misses += usize::from(sign != 0);
@@ -687,6 +848,92 @@ mod tests {
         assert!(
             nonzero_misses > 2900,
             "near misses are not ties: {nonzero_misses}"
+        );
+    }
+
+    /// Ties of vertical wells at UTM magnitudes (jittered collars) and on an exact
+    /// lattice (where wells line up, so the orientation in the plane is often zero), in
+    /// every order, with the free point on a third well, on one of the two, or in line
+    /// with them: found by `vertical_wells_tie`, exact zeros of the integer determinant,
+    /// and `wells_tie_inside` gives the general symbolic perturbation's answer.
+    #[test]
+    fn ties_of_vertical_wells_are_broken_as_the_general_perturbation_breaks_them() {
+        let mut state = 0x5eed_0f3e_1150_u64;
+        let (mut checked, mut inside, mut flat) = (0, 0, 0);
+        for round in 0..40_000 {
+            let pick = |state: &mut u64, n: u64| xorshift(state) % n;
+            let utm = round % 2 == 0;
+            // A well on a 5 x 5 grid of 50 m; jittered by up to 3 m at UTM magnitude.
+            let well = |state: &mut u64| {
+                let k = xorshift(state) % 25;
+                let (gx, gy) = ((k % 5) as f64 * 50.0, (k / 5) as f64 * 50.0);
+                if utm {
+                    let jitter = |v: u64| (v % 6001) as f64 / 1000.0 - 3.0;
+                    let (jx, jy) = (jitter(xorshift(state)), jitter(xorshift(state) >> 7));
+                    (
+                        500_000.0 + gx + jx - 500_100.0,
+                        6_500_000.0 + gy + jy - 6_500_100.0,
+                    )
+                } else {
+                    (gx - 100.0, gy - 100.0)
+                }
+            };
+            let a = well(&mut state);
+            let b = well(&mut state);
+            if a == b {
+                continue;
+            }
+            let m_line = match pick(&mut state, 4) {
+                0 => a,
+                1 => b,
+                _ => well(&mut state),
+            };
+            let z = |v: u64| v as f64 - 20.0;
+            let (ze, zi, zj) = (
+                z(pick(&mut state, 40)),
+                z(pick(&mut state, 40)),
+                z(pick(&mut state, 40)),
+            );
+            let zl = zi + ze - zj;
+            let zm = z(pick(&mut state, 40));
+            let at = |(x, y): (f64, f64), z: f64| DVec3::new(x, y, z);
+            let (e, i, j, l, m) = (at(b, ze), at(b, zi), at(a, zj), at(a, zl), at(m_line, zm));
+            let distinct = [e, i, j, l, m];
+            if (0..5).any(|x| (x + 1..5).any(|y| distinct[x] == distinct[y])) {
+                continue;
+            }
+            // The four in a random order, made positive (or skipped when flat).
+            let mut p = [i, j, l, m];
+            for k in (1..4).rev() {
+                p.swap(k, pick(&mut state, k as u64 + 1) as usize);
+            }
+            match robust_orient(p[0], p[1], p[2], p[3]) {
+                0 => {
+                    flat += 1;
+                    continue;
+                }
+                -1 => p.swap(0, 1),
+                _ => {}
+            }
+            let grid = Grid::new(&[p[0], p[1], p[2], p[3], e]).expect("on a binary grid");
+            assert_eq!(grid.insphere(p[0], p[1], p[2], p[3], e), 0, "{p:?} {e}");
+            let tie = vertical_wells_tie(p, e).unwrap_or_else(|| panic!("{p:?} {e}"));
+            let answer = grid.wells_tie_inside(p, e, tie);
+            assert_eq!(
+                answer,
+                crate::tet::predicates::in_sphere_perturbed(p, e),
+                "{p:?} {e} {tie:?}"
+            );
+            checked += 1;
+            inside += usize::from(answer);
+        }
+        assert!(
+            checked > 15_000 && flat > 100,
+            "{checked} checked, {flat} flat"
+        );
+        assert!(
+            inside > checked / 5 && inside < checked * 4 / 5,
+            "{inside} of {checked}"
         );
     }
 
