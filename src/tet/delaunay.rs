@@ -11,6 +11,7 @@ use rayon::prelude::*;
 
 use std::cmp::Ordering;
 use std::ops::Range;
+use std::sync::atomic::AtomicBool;
 use std::sync::atomic::Ordering::Relaxed;
 
 use super::exact_int::{self, Grid};
@@ -340,8 +341,14 @@ struct Geometry<'a> {
     /// well data): exact predicates then skip the per-call float-to-integer conversion.
     grid: Option<Grid>,
     /// With a grid (where co-spherical ties are common): the lexicographic rank of each
-    /// vertex, so the symbolic perturbation compares integers. Empty otherwise.
+    /// vertex, so the symbolic perturbation compares integers. Empty until a tie needs it:
+    /// the ties of vertical wells, all the ties of UTM well data, are broken without
+    /// ([`Grid::wells_tie_inside`]), so there it is never computed. A tie that finds it
+    /// empty compares the points themselves (the same order) and sets `wants_ranks`; the
+    /// driver then computes the ranks between two passes ([`Builder::rank_if_wanted`]),
+    /// never inside a worker's pass.
     lex_rank: Vec<u32>,
+    wants_ranks: AtomicBool,
     /// Error bounds of the `f64` orientation and insphere determinants over the whole
     /// point set ([`predicates::static_bounds`]; infinite when unusable): beyond them a
     /// sign is decided without the per-call bound.
@@ -616,6 +623,9 @@ impl Geometry<'_> {
     fn perturbed_tie<const GRID: bool>(&self, t: [u32; 4], q: u32) -> bool {
         if !self.lex_rank.is_empty() {
             return self.perturbed_tie_ranked::<GRID>(t, q);
+        }
+        if GRID {
+            self.wants_ranks.store(true, Relaxed);
         }
         let ids = [t[0], t[1], t[2], t[3], q];
         let greater = |i: usize, k: usize| {
@@ -1159,11 +1169,6 @@ impl<'a> Builder<'a> {
     ) -> Result<Vec<Cell>, TetError> {
         let first = initial_simplex(pts)?;
         let grid = Grid::new(pts);
-        let lex_rank = if grid.is_some() {
-            lex_ranks(pts)
-        } else {
-            Vec::new()
-        };
         let (orient_eps, insphere_eps) =
             predicates::static_bounds(extent).unwrap_or((f64::INFINITY, f64::INFINITY));
         // Uniform points give ~6.7 tetrahedra per point. The array is allocated zeroed
@@ -1175,7 +1180,8 @@ impl<'a> Builder<'a> {
                 pts,
                 coords: bytemuck::cast_slice(pts),
                 grid,
-                lex_rank,
+                lex_rank: Vec::new(),
+                wants_ranks: AtomicBool::new(false),
                 orient_eps,
                 insphere_eps,
                 x86_64_v3,
@@ -1202,6 +1208,7 @@ impl<'a> Builder<'a> {
                 for v in a as u32..z as u32 {
                     if (v as usize).is_multiple_of(CHECK_EVERY) {
                         report(v as usize)?;
+                        b.rank_if_wanted();
                     }
                     if !first.contains(&v) {
                         b.insert_sequential(v);
@@ -1213,6 +1220,7 @@ impl<'a> Builder<'a> {
             let chunks = (z - a).div_ceil(CHUNK_POINTS);
             for c in 0..chunks {
                 report(done)?;
+                b.rank_if_wanted();
                 let lo = a + (z - a) * c / chunks;
                 let hi = a + (z - a) * (c + 1) / chunks;
                 b.insert_parallel(lo as u32..hi as u32, &first);
@@ -1223,6 +1231,15 @@ impl<'a> Builder<'a> {
         let Builder { mut cells, top, .. } = b;
         cells.truncate(top);
         Ok(finish(cells))
+    }
+
+    /// Computes the lexicographic ranks once a tie has asked for them (see
+    /// [`Geometry::lex_rank`]), between two passes, so in parallel and with no worker
+    /// inserting.
+    fn rank_if_wanted(&mut self) {
+        if self.g.lex_rank.is_empty() && *self.g.wants_ranks.get_mut() {
+            self.g.lex_rank = lex_ranks(self.g.pts);
+        }
     }
 
     /// Hands `count` more never used slots to worker `w` (its unused fresh ones go to its
