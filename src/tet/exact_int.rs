@@ -459,24 +459,21 @@ impl Grid {
     ///
     /// The order is read off the coordinates: with no `-0.0` and no NaN among them it is
     /// `f64::total_cmp`'s, the order of the construction's lexicographic ranks.
+    ///
+    /// Without branches (which case holds is as unpredictable as the tie): with `r_ie`
+    /// and `r_jl` the signs of `z_e - z_i` and `z_l - z_j`, `k` is `j` when `A` is the
+    /// larger line and `r_jl < 0` (then `-r_ie = r_ie r_jl`), `l` when `r_jl > 0` (`r_ie =
+    /// r_ie r_jl`); when `B` is, `e` (outside) if `r_ie > 0`, else `i` (`r_jl`).
     #[inline]
     pub fn wells_tie_inside(&self, p: [DVec3; 4], e: DVec3, tie: WellsTie) -> bool {
         let [j, l, i, m] = tie.at;
-        let rise = |below: f64, above: f64| if above > below { 1 } else { -1 };
+        let rise = |below: f64, above: f64| 2 * i32::from(above > below) - 1;
         let a = p[j];
-        let along = if (a.x > e.x) | ((a.x == e.x) & (a.y > e.y)) {
-            // `k` is `j` or `l`.
-            if p[j].z > p[l].z {
-                -rise(p[i].z, e.z)
-            } else {
-                rise(p[i].z, e.z)
-            }
-        } else if e.z > p[i].z {
-            return false;
-        } else {
-            rise(p[j].z, p[l].z)
-        };
-        self.orient_xy(a, e, p[m]) * along * tie.parity > 0
+        let a_larger = (a.x > e.x) | ((a.x == e.x) & (a.y > e.y));
+        let (r_ie, r_jl) = (rise(p[i].z, e.z), rise(p[j].z, p[l].z));
+        let along = r_jl * if a_larger { r_ie } else { 1 };
+        let e_first = !a_larger & (r_ie > 0);
+        !e_first & (self.orient_xy(a, e, p[m]) * along * tie.parity > 0)
     }
 
     /// Exact sign of the orientation of `a`, `b`, `c` seen from above, their `z` ignored:
