@@ -342,8 +342,8 @@ struct Geometry<'a> {
     grid: Option<Grid>,
     /// With a grid (where co-spherical ties are common): the lexicographic rank of each
     /// vertex, so the symbolic perturbation compares integers. Empty until a tie needs it:
-    /// the ties of vertical wells, all the ties of UTM well data, are broken without
-    /// ([`Grid::wells_tie_inside`]), so there it is never computed. A tie that finds it
+    /// ties of vertical wells are broken without ([`Grid::wells_tie_inside`]), and on
+    /// UTM well data (jittered collars) every tie is one, so there it is never computed. A tie that finds it
     /// empty compares the points themselves (the same order) and sets `wants_ranks`; the
     /// driver then computes the ranks between two passes ([`Builder::rank_if_wanted`]),
     /// never inside a worker's pass.
@@ -624,7 +624,8 @@ impl Geometry<'_> {
         if !self.lex_rank.is_empty() {
             return self.perturbed_tie_ranked::<GRID>(t, q);
         }
-        if GRID {
+        // Written once: the flag shares a cache line with what every worker reads.
+        if GRID && !self.wants_ranks.load(Relaxed) {
             self.wants_ranks.store(true, Relaxed);
         }
         let ids = [t[0], t[1], t[2], t[3], q];
