@@ -508,37 +508,38 @@ pub struct WellsTie {
     pub parity: i32,
 }
 
+/// The tie at the positions `at` = `[j, l, i, m]`, with the sign of that permutation.
+const fn wells_tie(at: [usize; 4]) -> WellsTie {
+    let mut inversions = 0;
+    let mut x = 0;
+    while x < 4 {
+        let mut y = x + 1;
+        while y < 4 {
+            if at[x] > at[y] {
+                inversions += 1;
+            }
+            y += 1;
+        }
+        x += 1;
+    }
+    WellsTie {
+        at,
+        parity: if inversions % 2 == 0 { 1 } else { -1 },
+    }
+}
+
 /// The ties [`vertical_wells_tie`] tells apart: for each of [`WELL_PAIRS`], `i` first the
 /// one, then the other of the two left.
 const WELLS_TIES: [WellsTie; 12] = {
-    let mut ties = [WellsTie {
-        at: [0; 4],
-        parity: 1,
-    }; 12];
+    let mut ties = [wells_tie([0, 1, 2, 3]); 12];
     let mut c = 0;
     while c < 12 {
         let (j, l, i1, i2) = WELL_PAIRS[c / 2];
-        let at = if c % 2 == 0 {
+        ties[c] = wells_tie(if c % 2 == 0 {
             [j, l, i1, i2]
         } else {
             [j, l, i2, i1]
-        };
-        let mut inversions = 0;
-        let mut x = 0;
-        while x < 4 {
-            let mut y = x + 1;
-            while y < 4 {
-                if at[x] > at[y] {
-                    inversions += 1;
-                }
-                y += 1;
-            }
-            x += 1;
-        }
-        ties[c] = WellsTie {
-            at,
-            parity: if inversions % 2 == 0 { 1 } else { -1 },
-        };
+        });
         c += 1;
     }
     ties
@@ -547,27 +548,18 @@ const WELLS_TIES: [WellsTie; 12] = {
 /// For each position `i`, the three others.
 const OTHERS: [[usize; 3]; 4] = [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]];
 
-/// For `i` alone on `e`'s line: the index in [`WELLS_TIES`] of `[j, l, i, m]` for each
-/// pair of [`OTHERS`]`[i]`, `(o0, o1)`, `(o0, o2)`, `(o1, o2)`.
-const ONE_ON_E: [[usize; 3]; 4] = {
-    let mut table = [[0; 3]; 4];
+/// For `i` alone on `e`'s line: the tie `[j, l, i, m]` for each pair of
+/// [`OTHERS`]`[i]`, `(o0, o1)`, `(o0, o2)`, `(o1, o2)`.
+const ONE_ON_E: [[WellsTie; 3]; 4] = {
+    let mut table = [[wells_tie([0, 1, 2, 3]); 3]; 4];
     let mut i = 0;
     while i < 4 {
-        let o = OTHERS[i];
-        let pairs = [(o[0], o[1], o[2]), (o[0], o[2], o[1]), (o[1], o[2], o[0])];
-        let mut n = 0;
-        while n < 3 {
-            let (j, l, m) = pairs[n];
-            let mut c = 0;
-            while c < 12 {
-                let at = WELLS_TIES[c].at;
-                if at[0] == j && at[1] == l && at[2] == i && at[3] == m {
-                    table[i][n] = c;
-                }
-                c += 1;
-            }
-            n += 1;
-        }
+        let [o0, o1, o2] = OTHERS[i];
+        table[i] = [
+            wells_tie([o0, o1, i, o2]),
+            wells_tie([o0, o2, i, o1]),
+            wells_tie([o1, o2, i, o0]),
+        ];
         i += 1;
     }
     table
@@ -593,6 +585,7 @@ pub fn vertical_wells_tie(p: [DVec3; 4], e: DVec3) -> Option<WellsTie> {
     let (ex, ey) = (e.x.to_bits(), e.y.to_bits());
     let line = p.map(|q| (q.x.to_bits(), q.y.to_bits()));
     let on_e = line.map(|(x, y)| (x ^ ex) | (y ^ ey) == 0);
+    let same_line = |j: usize, l: usize| (line[j].0 ^ line[l].0) | (line[j].1 ^ line[l].1) == 0;
     let with_e = p.map(|q| (q.z + e.z).to_bits());
     let on_e_mask = on_e
         .iter()
@@ -602,17 +595,15 @@ pub fn vertical_wells_tie(p: [DVec3; 4], e: DVec3) -> Option<WellsTie> {
         // One point on `e`'s line, `i`, and the pair among the three others.
         let i = on_e_mask.trailing_zeros() as usize;
         let [o0, o1, o2] = OTHERS[i];
-        let pair = |j: usize, l: usize| {
-            ((line[j].0 ^ line[l].0) | (line[j].1 ^ line[l].1) == 0)
-                & ((p[j].z + p[l].z).to_bits() == with_e[i])
-        };
+        let pair =
+            |j: usize, l: usize| same_line(j, l) & ((p[j].z + p[l].z).to_bits() == with_e[i]);
         let found =
             u32::from(pair(o0, o1)) | u32::from(pair(o0, o2)) << 1 | u32::from(pair(o1, o2)) << 2;
-        return (found != 0).then(|| WELLS_TIES[ONE_ON_E[i][found.trailing_zeros() as usize]]);
+        return (found != 0).then(|| ONE_ON_E[i][found.trailing_zeros() as usize]);
     }
     let mut found = 0u32;
     for (c, &(j, l, i1, i2)) in WELL_PAIRS.iter().enumerate() {
-        let pair = ((line[j].0 ^ line[l].0) | (line[j].1 ^ line[l].1) == 0) & !on_e[j];
+        let pair = same_line(j, l) & !on_e[j];
         let sum = (p[j].z + p[l].z).to_bits();
         found |= u32::from(pair & on_e[i1] & (sum == with_e[i1])) << (2 * c);
         found |= u32::from(pair & on_e[i2] & (sum == with_e[i2])) << (2 * c + 1);
