@@ -1353,8 +1353,7 @@ impl<'a> Builder<'a> {
     /// pass, a second one over the vertices it gave up (cut across another axis), and
     /// the rest sequentially, in order.
     fn insert_parallel(&mut self, range: Range<u32>, first: &[u32; 4]) {
-        let ids = range.filter(|v| !first.contains(v));
-        let (mut rest, axis) = self.zoned_pass(ids, None);
+        let (mut rest, axis) = self.zoned_pass(range_without(range, first), None);
         // The vertices given up lie near the cut: split them again across another axis.
         // Not the longest of their box whatever it is: the few given up far from the cut
         // (a cavity reaching across it) stretch that box along the first axis as well,
@@ -1504,6 +1503,26 @@ impl<'a> Builder<'a> {
     }
 }
 
+/// The vertices of `range` but those of `skip` (distinct), in order: up to five plain
+/// ranges one after the other. Each zoned pass walks them four times or more, and the
+/// one-test-per-vertex `filter` this replaces compiled to a 16-wide search for each next
+/// vertex, with a reduction through the stack: about 27 ns per vertex, 3.4 ms per walk
+/// of a 2^17-vertex chunk, most of it while no worker was inserting.
+fn range_without(range: Range<u32>, skip: &[u32; 4]) -> impl Iterator<Item = u32> + Clone + Sync {
+    let mut cuts = *skip;
+    cuts.sort_unstable();
+    let mut pieces: [Range<u32>; 5] = Default::default();
+    let mut start = range.start;
+    for (piece, c) in pieces.iter_mut().zip(cuts) {
+        if (start..range.end).contains(&c) {
+            *piece = start..c;
+            start = c + 1;
+        }
+    }
+    pieces[4] = start..range.end;
+    pieces.into_iter().flatten()
+}
+
 /// Number of bins of [`nth_smallest`]'s histogram.
 const SELECT_BINS: usize = 4096;
 
@@ -1619,6 +1638,28 @@ fn x86_64_v3_detected() -> bool {
 mod tests {
     use super::*;
     use crate::progress::NoProgress;
+
+    /// A parallel chunk walks every vertex of its range once, but the first tetrahedron's,
+    /// wherever those lie: before, inside, at either end of or after the range, side by
+    /// side or not.
+    #[test]
+    fn a_chunk_skips_exactly_the_first_tetrahedron_s_vertices() {
+        let range = 100u32..140;
+        for skip in [
+            [0, 1, 2, 3],
+            [100, 101, 102, 103],
+            [139, 138, 137, 136],
+            [100, 139, 120, 5],
+            [120, 121, 300, 2],
+            [141, 140, 99, 110],
+            [7, 130, 105, 125],
+        ] {
+            let got: Vec<u32> = range_without(range.clone(), &skip).collect();
+            let want: Vec<u32> = range.clone().filter(|v| !skip.contains(v)).collect();
+            assert_eq!(got, want, "skipping {skip:?}");
+        }
+        assert_eq!(range_without(5..5, &[5, 6, 7, 8]).count(), 0);
+    }
 
     /// The cut of a parallel pass is the value a full selection finds, whatever the
     /// spread: uniform, clustered into one bin, repeated, all equal, negative.
