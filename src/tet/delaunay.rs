@@ -16,7 +16,7 @@ use std::sync::atomic::Ordering::Relaxed;
 
 use super::exact_int::{self, Grid};
 use super::predicates::{self, Sign};
-use super::sort::{InsertionOrder, bounds, insertion_order, lex_ranks};
+use super::sort::{InsertionOrder, bounds, insertion_order, lex_ranks, normalized_bounds};
 use super::{Cell, FACE_OUTWARD, NO_NEIGHBOUR, TetError, TetMesh, load4};
 use crate::progress::Progress;
 
@@ -112,12 +112,12 @@ fn build_with(
             max: MAX_POINTS,
         });
     }
-    if let Some(index) = points.par_iter().position_first(|p| !p.is_finite()) {
-        return Err(TetError::NonFinite { index });
-    }
-    // -0.0 and 0.0 are one coordinate: make them one bit pattern before sorting.
-    points.par_iter_mut().for_each(|p| *p += DVec3::ZERO);
-    let (lo, hi, smallest) = bounds(&points);
+    let Some((lo, hi, smallest)) = normalized_bounds(&mut points) else {
+        let index = points.par_iter().position_first(|p| !p.is_finite());
+        return Err(TetError::NonFinite {
+            index: index.expect("a point is not finite"),
+        });
+    };
     let (shift, _) = exact_shift((lo, hi));
     let scale = exact_scale((lo, hi), shift, smallest, &points)?;
     if scale == 0 {

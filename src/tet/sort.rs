@@ -104,20 +104,49 @@ pub struct InsertionOrder {
     pub rounds: Vec<usize>,
 }
 
-/// The lowest and highest coordinates of `points` per axis (infinities when empty), and
+/// The lowest and highest coordinates of points per axis (infinities when empty), and
 /// the smallest nonzero magnitude of a coordinate per axis (infinity where every
-/// coordinate is zero), in one pass.
-pub fn bounds(points: &[DVec3]) -> (DVec3, DVec3, DVec3) {
+/// coordinate is zero).
+type Bounds = (DVec3, DVec3, DVec3);
+
+fn no_bounds() -> Bounds {
     let inf = DVec3::splat(f64::INFINITY);
-    let empty = || (inf, -inf, inf);
+    (inf, -inf, inf)
+}
+
+fn widen((lo, hi, small): Bounds, p: DVec3) -> Bounds {
+    let a = p.abs();
+    let nonzero = DVec3::select(a.cmpeq(DVec3::ZERO), DVec3::splat(f64::INFINITY), a);
+    (lo.min(p), hi.max(p), small.min(nonzero))
+}
+
+fn merge(a: Bounds, b: Bounds) -> Bounds {
+    (a.0.min(b.0), a.1.max(b.1), a.2.min(b.2))
+}
+
+/// The [`Bounds`] of `points`, in one parallel pass.
+pub fn bounds(points: &[DVec3]) -> Bounds {
     points
         .par_iter()
-        .fold(empty, |(lo, hi, small), &p| {
-            let a = p.abs();
-            let nonzero = DVec3::select(a.cmpeq(DVec3::ZERO), inf, a);
-            (lo.min(p), hi.max(p), small.min(nonzero))
-        })
-        .reduce(empty, |a, b| (a.0.min(b.0), a.1.max(b.1), a.2.min(b.2)))
+        .fold(no_bounds, |b, &p| widen(b, p))
+        .reduce(no_bounds, merge)
+}
+
+/// [`bounds`] of `points` with every `-0.0` made `0.0` on the way (one bit pattern for
+/// one coordinate, before sorting), or `None` when a coordinate is not finite: the
+/// checks a construction starts with, in one pass over the points instead of three.
+pub fn normalized_bounds(points: &mut [DVec3]) -> Option<Bounds> {
+    let (b, finite) = points
+        .par_iter_mut()
+        .fold(
+            || (no_bounds(), true),
+            |(b, finite), p| {
+                *p += DVec3::ZERO;
+                (widen(b, *p), finite & p.is_finite())
+            },
+        )
+        .reduce(|| (no_bounds(), true), |x, y| (merge(x.0, y.0), x.1 & y.1));
+    finite.then_some(b)
 }
 
 /// The insertion order of the distinct `points`, finding equal points on the way: round 0
