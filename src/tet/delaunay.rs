@@ -51,8 +51,9 @@ const NO_VERTEX: u32 = u32::MAX;
 const ZONES: usize = 2;
 /// Point sets below this size are inserted sequentially.
 const PARALLEL_MIN_POINTS: usize = 50_000;
-/// BRIO rounds below this size are inserted sequentially.
-const PARALLEL_MIN_ROUND: usize = 8192;
+/// BRIO rounds below this size are inserted sequentially (see docs/tet.md, *Parallel
+/// insertion*, for why 2,048).
+const PARALLEL_MIN_ROUND: usize = 2048;
 /// Largest piece of a round inserted in parallel at once (between sequential passes).
 const CHUNK_POINTS: usize = 1 << 17;
 /// Fewest vertices given up by a parallel pass worth a second one.
