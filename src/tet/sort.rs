@@ -199,7 +199,9 @@ pub fn insertion_order(points: &[DVec3], (lo, hi): (DVec3, DVec3)) -> InsertionO
                 *slot = ((round << 58) | (h[l] >> 5), (c * LANES + l) as u32);
             }
         });
-    keyed.par_sort_unstable();
+    // By the key alone: pairs of one key are put in order just below, so the index need
+    // not be compared here (a 1M-point sort 22-31 ms instead of 33-43, two threads).
+    keyed.par_sort_unstable_by_key(|&(key, _)| key);
     // Distinct points can share a key (closer than the key's resolution); equal ones
     // always do. Order such runs by coordinates so equal points are adjacent.
     let mut k = 0;
