@@ -581,18 +581,21 @@ impl Geometry<'_> {
     /// kernel need not keep them past its determinant: it had stored them to the stack
     /// and loaded them back on every test.
     #[inline(never)]
-    fn insphere_undecided<const GRID: bool>(&self, [a, b, c, d]: [u32; 4], pe: DVec3) -> Sign {
-        let (pa, pb, pc, pd) = (self.p(a), self.p(b), self.p(c), self.p(d));
+    fn insphere_undecided<const GRID: bool>(&self, t: [u32; 4], pe: DVec3) -> Sign {
         if GRID {
             let g = self.grid_of_kernel();
-            let p = [pa, pb, pc, pd];
+            // The coordinates as three arrays of scalars, read back one scalar at a
+            // time, not an array of points (see `vertical_wells_tie`).
+            let q = t.map(|v| self.p(v));
+            let (xs, ys, zs) = (q.map(|q| q.x), q.map(|q| q.y), q.map(|q| q.z));
+            let p = |k: usize| DVec3::new(xs[k], ys[k], zs[k]);
             if let Some(tie) = exact_int::vertical_wells_tie(p, pe) {
                 // Broken here already, as `perturbed_tie` would break it.
                 let inside = g.wells_tie_inside(p, pe, tie);
                 debug_assert_eq!(
                     inside,
-                    predicates::in_sphere_perturbed(p, pe),
-                    "a tie of wells is broken as the general tie-break does: {p:?} {pe}"
+                    predicates::in_sphere_perturbed(t.map(|v| self.p(v)), pe),
+                    "a tie of wells is broken as the general tie-break does: {t:?} {pe}"
                 );
                 return if inside {
                     Sign::Positive
@@ -600,8 +603,10 @@ impl Geometry<'_> {
                     Sign::Negative
                 };
             }
+            let [pa, pb, pc, pd] = t.map(|v| self.p(v));
             return Sign::of(f64::from(g.insphere(pa, pb, pc, pd, pe)));
         }
+        let [pa, pb, pc, pd] = t.map(|v| self.p(v));
         match predicates::insphere_filter(pa, pb, pc, pd, pe) {
             Some(s) => s,
             None => predicates::insphere_exact(pa, pb, pc, pd, pe),

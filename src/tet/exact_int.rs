@@ -480,16 +480,18 @@ impl Grid {
     /// and `r_jl` the signs of `z_e - z_i` and `z_l - z_j`, `k` is `j` when `A` is the
     /// larger line and `r_jl < 0` (then `-r_ie = r_ie r_jl`), `l` when `r_jl > 0` (`r_ie =
     /// r_ie r_jl`); when `B` is, `e` (outside) if `r_ie > 0`, else `i` (`r_jl`).
+    ///
+    /// `p(k)` is the point at position `k`, as in [`vertical_wells_tie`].
     #[inline]
-    pub fn wells_tie_inside(&self, p: [DVec3; 4], e: DVec3, tie: WellsTie) -> bool {
+    pub fn wells_tie_inside(&self, p: impl Fn(usize) -> DVec3, e: DVec3, tie: WellsTie) -> bool {
         let [j, l, i, m] = tie.at;
         let rise = |below: f64, above: f64| 2 * i32::from(above > below) - 1;
-        let a = p[j];
+        let a = p(j);
         let a_larger = (a.x > e.x) | ((a.x == e.x) & (a.y > e.y));
-        let (r_ie, r_jl) = (rise(p[i].z, e.z), rise(p[j].z, p[l].z));
+        let (r_ie, r_jl) = (rise(p(i).z, e.z), rise(a.z, p(l).z));
         let along = r_jl * if a_larger { r_ie } else { 1 };
         let e_first = !a_larger & (r_ie > 0);
-        !e_first & (self.orient_xy(a, e, p[m]) * along * tie.parity > 0)
+        !e_first & (self.orient_xy(a, e, p(m)) * along * tie.parity > 0)
     }
 
     /// Exact sign of the orientation of `a`, `b`, `c` seen from above, their `z` ignored:
@@ -596,13 +598,19 @@ const ONE_ON_E: [[WellsTie; 3]; 4] = {
 /// NaN). With one point on `e`'s line (the usual case: a second one there is the fourth
 /// point on the query's well) only the three pairs of the other three are tested, else
 /// all 12 cases.
+///
+/// `p(k)` is the point at position `k`. The construction keeps the four points as three
+/// arrays of scalars, one per axis: passed as an array of points, they were copied
+/// through the stack twice and read back in 16-byte loads from 8-byte stores (a stalled
+/// store forwarding each), and a tie took 11% of a one-thread build of the 1M UTM
+/// lattice under `perf` instead of 8-9% (docs/benchmarks.md, *nineteenth part*).
 #[inline]
-pub fn vertical_wells_tie(p: [DVec3; 4], e: DVec3) -> Option<WellsTie> {
+pub fn vertical_wells_tie(p: impl Fn(usize) -> DVec3 + Copy, e: DVec3) -> Option<WellsTie> {
     let (ex, ey) = (e.x.to_bits(), e.y.to_bits());
-    let line = p.map(|q| (q.x.to_bits(), q.y.to_bits()));
+    let line = [0, 1, 2, 3].map(|k| (p(k).x.to_bits(), p(k).y.to_bits()));
     let on_e = line.map(|(x, y)| (x ^ ex) | (y ^ ey) == 0);
     let same_line = |j: usize, l: usize| (line[j].0 ^ line[l].0) | (line[j].1 ^ line[l].1) == 0;
-    let with_e = p.map(|q| (q.z + e.z).to_bits());
+    let with_e = [0, 1, 2, 3].map(|k| (p(k).z + e.z).to_bits());
     let on_e_mask = on_e
         .iter()
         .enumerate()
@@ -612,7 +620,7 @@ pub fn vertical_wells_tie(p: [DVec3; 4], e: DVec3) -> Option<WellsTie> {
         let i = on_e_mask.trailing_zeros() as usize;
         let [o0, o1, o2] = OTHERS[i];
         let pair =
-            |j: usize, l: usize| same_line(j, l) & ((p[j].z + p[l].z).to_bits() == with_e[i]);
+            |j: usize, l: usize| same_line(j, l) & ((p(j).z + p(l).z).to_bits() == with_e[i]);
         let found =
             u32::from(pair(o0, o1)) | u32::from(pair(o0, o2)) << 1 | u32::from(pair(o1, o2)) << 2;
         return (found != 0).then(|| ONE_ON_E[i][found.trailing_zeros() as usize]);
@@ -620,7 +628,7 @@ pub fn vertical_wells_tie(p: [DVec3; 4], e: DVec3) -> Option<WellsTie> {
     let mut found = 0u32;
     for (c, &(j, l, i1, i2)) in WELL_PAIRS.iter().enumerate() {
         let pair = same_line(j, l) & !on_e[j];
-        let sum = (p[j].z + p[l].z).to_bits();
+        let sum = (p(j).z + p(l).z).to_bits();
         found |= u32::from(pair & on_e[i1] & (sum == with_e[i1])) << (2 * c);
         found |= u32::from(pair & on_e[i2] & (sum == with_e[i2])) << (2 * c + 1);
     }
@@ -861,7 +869,7 @@ mod tests {
                 };
                 assert!(concyclic_by_construction(&tie), "axis {k}: {tie:?}");
                 assert_eq!(
-                    vertical_wells_tie(tie.map(as_point), DVec3::ZERO).is_some(),
+                    vertical_wells_tie(|k| as_point(tie[k]), DVec3::ZERO).is_some(),
                     k == 2,
                     "axis {k}: {tie:?}"
                 );
@@ -869,7 +877,7 @@ mod tests {
                 assert_eq!(robust_insphere(with_e(tie)), 0, "axis {k}: {tie:?}");
                 let miss = [on_e, p, near, other];
                 assert!(!concyclic_by_construction(&miss), "axis {k}: {miss:?}");
-                assert!(vertical_wells_tie(miss.map(as_point), DVec3::ZERO).is_none());
+                assert!(vertical_wells_tie(|k| as_point(miss[k]), DVec3::ZERO).is_none());
                 let sign = insphere_wide(miss);
                 assert_eq!(sign, robust_insphere(with_e(miss)), "axis {k}: {miss:?}");
                 nonzero_misses += usize::from(sign != 0);
@@ -947,8 +955,8 @@ mod tests {
             }
             let grid = Grid::new(&[p[0], p[1], p[2], p[3], e]).expect("on a binary grid");
             assert_eq!(grid.insphere(p[0], p[1], p[2], p[3], e), 0, "{p:?} {e}");
-            let tie = vertical_wells_tie(p, e).unwrap_or_else(|| panic!("{p:?} {e}"));
-            let answer = grid.wells_tie_inside(p, e, tie);
+            let tie = vertical_wells_tie(|k| p[k], e).unwrap_or_else(|| panic!("{p:?} {e}"));
+            let answer = grid.wells_tie_inside(|k| p[k], e, tie);
             assert_eq!(
                 answer,
                 crate::tet::predicates::in_sphere_perturbed(p, e),
