@@ -594,7 +594,7 @@ impl Geometry<'_> {
                 let inside = g.wells_tie_inside(p, pe, tie);
                 debug_assert_eq!(
                     inside,
-                    predicates::in_sphere_perturbed(t.map(|v| self.p(v)), pe),
+                    predicates::in_sphere_perturbed(q, pe),
                     "a tie of wells is broken as the general tie-break does: {t:?} {pe}"
                 );
                 return if inside {
@@ -603,7 +603,7 @@ impl Geometry<'_> {
                     Sign::Negative
                 };
             }
-            let [pa, pb, pc, pd] = t.map(|v| self.p(v));
+            let [pa, pb, pc, pd] = q;
             return Sign::of(f64::from(g.insphere(pa, pb, pc, pd, pe)));
         }
         let [pa, pb, pc, pd] = t.map(|v| self.p(v));
