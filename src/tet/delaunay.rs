@@ -829,6 +829,34 @@ impl Worker {
                 return Some(t);
             }
             let start = self.next_random();
+            if !GRID {
+                // Off a grid, the four faces' orientations first, into masks, then the
+                // first face in the random order with the point beyond it: the step
+                // the loop below takes, without a jump on each sign. A determinant
+                // within the bound sends the step to that loop.
+                let (mut beyond_face, mut open) = (0u32, 0u32);
+                for f in 0..4 {
+                    let mut r = tv;
+                    r[f] = q;
+                    let det = predicates::orient_det(g.p(r[0]), g.p(r[1]), g.p(r[2]), g.p(r[3]));
+                    beyond_face |= u32::from(det < -g.orient_eps) << f;
+                    open |= u32::from(!(det.abs() > g.orient_eps)) << f;
+                }
+                let others = !(1u32 << from) & 0xf;
+                if open & others == 0 {
+                    let m = beyond_face & others;
+                    if m == 0 {
+                        return Some(t);
+                    }
+                    let turn = start & 3;
+                    let rotated = ((m >> turn) | (m << (4 - turn))) & 0xf;
+                    let f = ((turn + rotated.trailing_zeros()) & 3) as usize;
+                    let link = cell.n[f].load(Relaxed);
+                    t = link >> 2;
+                    from = (link & 3) as usize;
+                    continue 'walk;
+                }
+            }
             for s in 0..4u32 {
                 let f = ((start + s) & 3) as usize;
                 if f == from {
