@@ -839,8 +839,10 @@ impl Worker {
                     let mut r = tv;
                     r[f] = q;
                     let det = predicates::orient_det(g.p(r[0]), g.p(r[1]), g.p(r[2]), g.p(r[3]));
+                    // Not beyond the bound either way: open (a NaN too).
+                    let decided = det.abs() > g.orient_eps;
                     beyond_face |= u32::from(det < -g.orient_eps) << f;
-                    open |= u32::from(!(det.abs() > g.orient_eps)) << f;
+                    open |= u32::from(!decided) << f;
                 }
                 let others = !(1u32 << from) & 0xf;
                 if open & others == 0 {
