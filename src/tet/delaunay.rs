@@ -996,7 +996,9 @@ impl Worker {
             let (mut open, mut fresh) = (0u32, 0u32);
             for (f, c2) in near.iter().enumerate() {
                 open |= u32::from(c2.v[0].load(Relaxed) & MARK == 0) << f;
-                fresh |= u32::from(c2.v[1].load(Relaxed) & MARK == 0) << f;
+                if !GRID {
+                    fresh |= u32::from(c2.v[1].load(Relaxed) & MARK == 0) << f;
+                }
             }
             // Off a grid, the tests of all untested neighbours first, into a mask: no
             // jump on their answers until all are computed, so their latencies overlap
@@ -1017,15 +1019,27 @@ impl Worker {
                 let link = links[f];
                 let t2 = link >> 2;
                 let c2 = near[f];
-                if fresh & (1 << f) != 0 {
+                // On a grid the neighbour's words are read once here, its mark and its
+                // vertices together (atomic loads are never merged by the compiler).
+                let raw = if GRID { c2.raw_verts() } else { [0; 4] };
+                let untested = if GRID {
+                    raw[1] & MARK == 0
+                } else {
+                    fresh & (1 << f) != 0
+                };
+                if untested {
                     let conflict = if GRID {
-                        g.conflict::<GRID>(c2.verts(), v, pv)
+                        g.conflict::<GRID>(raw.map(|u| u & VERTEX_MASK), v, pv)
                     } else {
                         hit & (1 << f) != 0
                     };
                     if conflict {
                         // `t` is owned, so the face it shares with `t2` is too.
-                        let opposite = c2.v[(link & 3) as usize].load(Relaxed) & VERTEX_MASK;
+                        let opposite = if GRID {
+                            raw[(link & 3) as usize]
+                        } else {
+                            c2.v[(link & 3) as usize].load(Relaxed)
+                        } & VERTEX_MASK;
                         if !zone.owns_beyond_owned_face(g.coords, opposite) {
                             self.unmark(cells);
                             return Err(Missed::Foreign);
