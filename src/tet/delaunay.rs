@@ -717,22 +717,18 @@ impl Geometry<'_> {
     /// [`Geometry::conflict`] off a grid, with its common outcome (a float determinant
     /// beyond the static bound) returned as data, not as a jump on the determinant's
     /// sign, so the cavity search can compute the tests of a tetrahedron's neighbours
-    /// before it branches on any.
+    /// before it branches on any. Ghosts and determinants within the bound (rare off a
+    /// grid) take [`Geometry::conflict`] itself.
     #[inline(always)]
     fn conflict_hoisted(&self, tv: [u32; 4], v: u32, pv: DVec3) -> bool {
-        if tv[3] == INF {
-            return self.conflict::<false>(tv, v, pv);
+        if tv[3] != INF {
+            let [pa, pb, pc, pd] = tv.map(|u| self.p(u));
+            let det = predicates::insphere_det(pa, pb, pc, pd, pv);
+            if det.abs() > self.insphere_eps {
+                return det > 0.0;
+            }
         }
-        let [pa, pb, pc, pd] = tv.map(|u| self.p(u));
-        let det = predicates::insphere_det(pa, pb, pc, pd, pv);
-        if det.abs() > self.insphere_eps {
-            return det > 0.0;
-        }
-        match self.insphere_undecided::<false>(tv, pv) {
-            Sign::Positive => true,
-            Sign::Negative => false,
-            Sign::Zero => self.perturbed_tie::<false>(tv, v),
-        }
+        self.conflict::<false>(tv, v, pv)
     }
 }
 
