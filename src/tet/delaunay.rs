@@ -1439,53 +1439,61 @@ impl<'a> Builder<'a> {
     /// pass, a second one over the vertices it gave up (cut across another axis), and
     /// the rest sequentially, in order.
     fn insert_parallel(&mut self, range: Range<u32>, first: &[u32; 4]) {
-        let (mut rest, axis) = self.zoned_pass(range_without(range, first), None);
+        let (mut rest, axis) = self.zoned_pass(&range_without(range, first), None);
         // The vertices given up lie near the cut: split them again across another axis.
         // Not the longest of their box whatever it is: the few given up far from the cut
         // (a cavity reaching across it) stretch that box along the first axis as well,
         // and in the last BRIO round, whose pieces are about half as wide as they are
         // long, the second cut fell on the first one and gave up ~99% again.
         if rest.len() >= SECOND_PASS_MIN {
-            rest = self.zoned_pass(rest.iter().copied(), Some(axis)).0;
+            rest = self.zoned_pass(&Ids::of_increasing(&rest), Some(axis)).0;
         }
         for v in rest {
             self.insert_sequential(v);
         }
     }
 
-    /// One parallel pass over `ids` (increasing): split into slabs of equal counts across
-    /// the longest axis of their bounding box other than `not_across`, one worker per
-    /// slab. Returns the vertices the workers gave up, increasing, and the axis cut.
+    /// One parallel pass over `ids`: split into slabs of equal counts across the longest
+    /// axis of their bounding box other than `not_across`, one worker per slab. Returns
+    /// the vertices the workers gave up, increasing, and the axis cut.
     ///
     /// `ids` is read several times and never collected: each worker walks all of it and
     /// takes the vertices of its slab, and the cut is found by [`nth_smallest`]. The
     /// lists this replaces (at 2^17 vertices, 2 MiB of ids, coordinates and per-worker
     /// lists) stayed resident in the allocator's heap through the construction's peak
-    /// (`docs/tet.md`, *Parallel insertion*).
-    fn zoned_pass<I>(&mut self, ids: I, not_across: Option<usize>) -> (Vec<u32>, usize)
-    where
-        I: Iterator<Item = u32> + Clone + Sync,
-    {
+    /// (`docs/tet.md`, *Parallel insertion*). The set-up's walks (the bounding box, the
+    /// cut, the slab counts) run on all threads too, over [`Ids::parts`]: serial, they
+    /// took 14.5 ms of a 1M build while no worker inserted (2026-12-05).
+    fn zoned_pass(&mut self, ids: &Ids, not_across: Option<usize>) -> (Vec<u32>, usize) {
         let pts = self.g.pts;
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        let mut count = 0;
-        for v in ids.clone() {
-            lo = lo.min(pts[v as usize]);
-            hi = hi.max(pts[v as usize]);
-            count += 1;
-        }
+        let parts = ids.parts(rayon::current_num_threads());
+        let empty = || {
+            (
+                DVec3::splat(f64::INFINITY),
+                DVec3::splat(f64::NEG_INFINITY),
+                0,
+            )
+        };
+        let (lo, hi, count) = parts
+            .par_iter()
+            .map(|part| {
+                part.iter().fold(empty(), |(lo, hi, n), v| {
+                    let p = pts[v as usize];
+                    (lo.min(p), hi.max(p), n + 1)
+                })
+            })
+            .reduce(empty, |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 + b.2));
         let mut extent = hi - lo;
         if let Some(a) = not_across {
             extent[a] = f64::NEG_INFINITY;
         }
         let axis = extent.max_position();
         let k = self.workers.len();
-        let coordinates = ids.clone().map(|v| pts[v as usize][axis]);
         let mut cuts = vec![f64::NEG_INFINITY];
         for z in 1..k {
             cuts.push(nth_smallest(
-                coordinates.clone(),
+                &parts.iter().collect::<Vec<&Ids>>(),
+                |&part| part.iter().map(move |v| pts[v as usize][axis]),
                 (lo[axis], hi[axis]),
                 count * z / k,
             ));
@@ -1501,15 +1509,30 @@ impl<'a> Builder<'a> {
             .collect();
         // Each slab's vertex count and first vertex; a vertex's slab is the zone that owns
         // it, as the workers decide below.
+        let (g, zones_ref) = (&self.g, &zones);
+        let per_part: Vec<(Vec<usize>, Vec<Option<u32>>)> = parts
+            .par_iter()
+            .map(|part| {
+                let mut counts = vec![0usize; k];
+                let mut firsts = vec![None; k];
+                for v in part.iter() {
+                    if let Some(z) = zones_ref
+                        .iter()
+                        .position(|zone| zone.owns_vertex(g.coords, v))
+                    {
+                        counts[z] += 1;
+                        firsts[z].get_or_insert(v);
+                    }
+                }
+                (counts, firsts)
+            })
+            .collect();
         let mut counts = vec![0usize; k];
-        let mut firsts = vec![None; k];
-        for v in ids.clone() {
-            if let Some(z) = zones
-                .iter()
-                .position(|zone| zone.owns_vertex(self.g.coords, v))
-            {
-                counts[z] += 1;
-                firsts[z].get_or_insert(v);
+        let mut firsts: Vec<Option<u32>> = vec![None; k];
+        for (c, f) in &per_part {
+            for z in 0..k {
+                counts[z] += c[z];
+                firsts[z] = firsts[z].or(f[z]);
             }
         }
         for w in &mut self.workers {
@@ -1533,13 +1556,13 @@ impl<'a> Builder<'a> {
                 started[z] = true;
             }
         }
-        let (g, cells, ids) = (&self.g, &self.cells[..], &ids);
+        let (g, cells) = (&self.g, &self.cells[..]);
         self.workers
             .par_iter_mut()
             .zip(zones.par_iter())
             .zip(started.par_iter())
             .for_each(|((w, &zone), &started)| {
-                for v in ids.clone() {
+                for v in ids.iter() {
                     if !zone.owns_vertex(g.coords, v) {
                         continue;
                     }
@@ -1589,37 +1612,94 @@ impl<'a> Builder<'a> {
     }
 }
 
+/// The vertex ids of one zoned pass, increasing: a few plain ranges (a chunk without the
+/// first tetrahedron's vertices) or the runs of consecutive ids of a list (the vertices a
+/// first pass gave up). Walked several times by each pass, never collected one by one.
+#[derive(Debug, Clone, Default, PartialEq)]
+struct Ids(Vec<Range<u32>>);
+
+impl Ids {
+    /// The ids `list` holds (increasing), as runs.
+    fn of_increasing(list: &[u32]) -> Ids {
+        let mut runs: Vec<Range<u32>> = Vec::new();
+        for &v in list {
+            match runs.last_mut() {
+                Some(r) if r.end == v => r.end += 1,
+                _ => runs.push(v..v + 1),
+            }
+        }
+        Ids(runs)
+    }
+
+    fn iter(&self) -> impl Iterator<Item = u32> + '_ {
+        self.0.iter().flat_map(Range::clone)
+    }
+
+    fn len(&self) -> usize {
+        self.0.iter().map(|r| r.len()).sum()
+    }
+
+    /// The same ids cut into `k` consecutive parts of (nearly) equal counts, for walks
+    /// on all threads whose results do not depend on where the cuts fall.
+    fn parts(&self, k: usize) -> Vec<Ids> {
+        let total = self.len();
+        let k = k.clamp(1, total.max(1));
+        let mut parts = vec![Ids::default(); k];
+        let mut seen = 0;
+        for r in &self.0 {
+            let mut r = r.clone();
+            while !r.is_empty() {
+                let p = (seen * k / total.max(1)).min(k - 1);
+                // Ids before the next part's first index stay in part `p`.
+                let room = (total * (p + 1)).div_ceil(k) - seen;
+                let take = (r.len()).min(room.max(1)) as u32;
+                parts[p].0.push(r.start..r.start + take);
+                r.start += take;
+                seen += take as usize;
+            }
+        }
+        parts
+    }
+}
+
 /// The vertices of `range` but those of `skip` (distinct), in order: up to five plain
 /// ranges one after the other. Each zoned pass walks them four times or more, and the
 /// one-test-per-vertex `filter` this replaces compiled to a 16-wide search for each next
 /// vertex, with a reduction through the stack: about 27 ns per vertex, 3.4 ms per walk
 /// of a 2^17-vertex chunk, most of it while no worker was inserting.
-fn range_without(range: Range<u32>, skip: &[u32; 4]) -> impl Iterator<Item = u32> + Clone + Sync {
+fn range_without(range: Range<u32>, skip: &[u32; 4]) -> Ids {
     let mut cuts = *skip;
     cuts.sort_unstable();
-    let mut pieces: [Range<u32>; 5] = Default::default();
+    let mut pieces = Vec::with_capacity(5);
     let mut start = range.start;
-    for (piece, c) in pieces.iter_mut().zip(cuts) {
+    for c in cuts {
         if (start..range.end).contains(&c) {
-            *piece = start..c;
+            pieces.push(start..c);
             start = c + 1;
         }
     }
-    pieces[4] = start..range.end;
-    pieces.into_iter().flatten()
+    pieces.push(start..range.end);
+    pieces.retain(|r| !r.is_empty());
+    Ids(pieces)
 }
 
 /// Number of bins of [`nth_smallest`]'s histogram.
 const SELECT_BINS: usize = 4096;
 
-/// The `at`-th smallest (from 0) of the values `values` yields, all in `lo..=hi`: the
-/// value `select_nth_unstable` would put at `at`, found without collecting the values.
-/// One pass counts them in equal bins over `lo..=hi`; a second collects those of the
-/// bin holding rank `at` (a few hundred for a chunk of 2^17 vertices) and selects among
-/// them. Values in one bin are kept whatever their spread, so clustered input costs at
-/// worst the list of all values. `at` must be below the number of values (a parallel
-/// pass has at least `SECOND_PASS_MIN` vertices).
-fn nth_smallest(values: impl Iterator<Item = f64> + Clone, (lo, hi): (f64, f64), at: usize) -> f64 {
+/// The `at`-th smallest (from 0) of the values that `values` yields over all `parts`,
+/// all in `lo..=hi`: the value `select_nth_unstable` would put at `at`, found without
+/// collecting the values. One pass counts them in equal bins over `lo..=hi`; a second
+/// collects those of the bin holding rank `at` (a few hundred for a chunk of 2^17
+/// vertices) and selects among them. Both passes run over the parts in parallel. Values
+/// in one bin are kept whatever their spread, so clustered input costs at worst the list
+/// of all values. `at` must be below the number of values (a parallel pass has at least
+/// `SECOND_PASS_MIN` vertices).
+fn nth_smallest<P: Sync, I: Iterator<Item = f64>>(
+    parts: &[P],
+    values: impl Fn(&P) -> I + Sync,
+    (lo, hi): (f64, f64),
+    at: usize,
+) -> f64 {
     let width = hi - lo;
     let per_unit = if width > 0.0 {
         SELECT_BINS as f64 / width
@@ -1627,17 +1707,30 @@ fn nth_smallest(values: impl Iterator<Item = f64> + Clone, (lo, hi): (f64, f64),
         0.0
     };
     let bin = |x: f64| (((x - lo) * per_unit) as usize).min(SELECT_BINS - 1);
-    let mut counts = vec![0usize; SELECT_BINS];
-    for x in values.clone() {
-        counts[bin(x)] += 1;
-    }
+    let counts = parts
+        .par_iter()
+        .map(|part| {
+            let mut counts = vec![0usize; SELECT_BINS];
+            for x in values(part) {
+                counts[bin(x)] += 1;
+            }
+            counts
+        })
+        .reduce_with(|mut a, b| {
+            a.iter_mut().zip(&b).for_each(|(a, b)| *a += b);
+            a
+        })
+        .unwrap_or_else(|| vec![0; SELECT_BINS]);
     let mut below = 0;
     let mut b = 0;
     while below + counts[b] <= at {
         below += counts[b];
         b += 1;
     }
-    let mut in_bin: Vec<f64> = values.filter(|&x| bin(x) == b).collect();
+    let mut in_bin: Vec<f64> = parts
+        .par_iter()
+        .flat_map_iter(|part| values(part).filter(|&x| bin(x) == b))
+        .collect();
     *in_bin.select_nth_unstable_by(at - below, f64::total_cmp).1
 }
 
@@ -1740,15 +1833,46 @@ mod tests {
             [141, 140, 99, 110],
             [7, 130, 105, 125],
         ] {
-            let got: Vec<u32> = range_without(range.clone(), &skip).collect();
+            let got: Vec<u32> = range_without(range.clone(), &skip).iter().collect();
             let want: Vec<u32> = range.clone().filter(|v| !skip.contains(v)).collect();
             assert_eq!(got, want, "skipping {skip:?}");
         }
-        assert_eq!(range_without(5..5, &[5, 6, 7, 8]).count(), 0);
+        assert_eq!(range_without(5..5, &[5, 6, 7, 8]).iter().count(), 0);
     }
 
     /// The cut of a parallel pass is the value a full selection finds, whatever the
     /// spread: uniform, clustered into one bin, repeated, all equal, negative.
+    #[test]
+    fn a_pass_s_ids_cut_into_parts_keep_every_id_once_in_order_and_balanced() {
+        let lists: [Vec<u32>; 5] = [
+            (0..1000).collect(),
+            vec![3, 4, 5, 9, 10, 20, 21, 22, 23, 99],
+            vec![7],
+            (0..500).map(|v| v * 3).collect(),
+            Vec::new(),
+        ];
+        for list in &lists {
+            let ids = Ids::of_increasing(list);
+            assert_eq!(ids.iter().collect::<Vec<_>>(), *list);
+            // Runs: consecutive ids share one range.
+            assert!(ids.0.windows(2).all(|w| w[0].end < w[1].start));
+            for k in [1, 2, 3, 4, 7, 16] {
+                let parts = ids.parts(k);
+                assert_eq!(parts.len(), k.clamp(1, list.len().max(1)));
+                let joined: Vec<u32> = parts.iter().flat_map(Ids::iter).collect();
+                assert_eq!(joined, *list, "{k} parts");
+                let sizes: Vec<usize> = parts.iter().map(Ids::len).collect();
+                let (lo, hi) = (sizes.iter().min(), sizes.iter().max());
+                assert!(hi.unwrap() - lo.unwrap() <= 1, "{k} parts: {sizes:?}");
+            }
+        }
+        let chunk = range_without(100..140, &[120, 3, 139, 100]);
+        assert_eq!(chunk.0, vec![101..120, 121..139]);
+        let halves = chunk.parts(2);
+        assert_eq!(halves[0].0, vec![101..120]);
+        assert_eq!(halves[1].0, vec![121..139]);
+    }
+
     #[test]
     fn nth_smallest_is_the_selected_value_without_collecting_all() {
         let mut state = 0x9E37_79B9_7F4A_7C15;
@@ -1765,8 +1889,17 @@ mod tests {
             let mut sorted = values.clone();
             sorted.sort_by(f64::total_cmp);
             for at in [0, 1, values.len() / 3, values.len() / 2, values.len() - 1] {
+                for k in [1, 2, 3, 7] {
+                    let parts: Vec<&[f64]> = values.chunks(values.len().div_ceil(k)).collect();
+                    assert_eq!(
+                        nth_smallest(&parts, |&part| part.iter().copied(), (lo, hi), at),
+                        sorted[at],
+                        "rank {at} of {} values in {lo}..={hi}, {k} parts",
+                        values.len()
+                    );
+                }
                 assert_eq!(
-                    nth_smallest(values.iter().copied(), (lo, hi), at),
+                    nth_smallest(&[&values[..]], |&part| part.iter().copied(), (lo, hi), at),
                     sorted[at],
                     "rank {at} of {} values in {lo}..={hi}",
                     values.len()

@@ -7,6 +7,7 @@
 //! is several times faster than general floating-point expansions on exact ties.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Largest coordinate difference (in grid units) for which the insphere determinant fits
 /// in 255 bits: |det| < 2^(5B + 7).
@@ -341,24 +342,39 @@ impl Grid {
     /// The grid of `points`, or `None` when their coordinates span more than
     /// [`GRID_BITS`] bits of one binary grid (general floating-point data).
     pub fn new(points: &[DVec3]) -> Option<Grid> {
-        let mut lo = [i32::MAX; 3];
-        let mut hi = [i32::MIN; 3];
-        for chunk in points.chunks(4096) {
-            for p in chunk {
-                for k in 0..3 {
-                    if p[k] != 0.0 {
-                        let (l, h) = bit_span(p[k]);
-                        lo[k] = lo[k].min(l);
-                        hi[k] = hi[k].max(h);
-                    }
-                }
-            }
+        // Each axis' lowest and highest set bit, over chunks in parallel (one serial scan
+        // until 2026-12-05: 7 ms of a 1M lattice build); a chunk that leaves the span too
+        // wide stops the scan, so general data costs about one chunk per thread.
+        type Span = ([i32; 3], [i32; 3]);
+        let empty = || ([i32::MAX; 3], [i32::MIN; 3]);
+        let narrow = |(lo, hi): Span| {
             let unit = *lo.iter().min().unwrap_or(&0);
             let top = *hi.iter().max().unwrap_or(&0);
-            if unit != i32::MAX && top - unit > GRID_BITS {
-                return None;
-            }
-        }
+            (unit == i32::MAX || top - unit <= GRID_BITS).then_some((lo, hi))
+        };
+        let merge = |(lo, hi): Span, (lo2, hi2): Span| {
+            let m = (
+                [0, 1, 2].map(|k| lo[k].min(lo2[k])),
+                [0, 1, 2].map(|k| hi[k].max(hi2[k])),
+            );
+            narrow(m)
+        };
+        let (lo, hi) = points
+            .par_chunks(4096)
+            .map(|chunk| {
+                let (mut lo, mut hi) = empty();
+                for p in chunk {
+                    for k in 0..3 {
+                        if p[k] != 0.0 {
+                            let (l, h) = bit_span(p[k]);
+                            lo[k] = lo[k].min(l);
+                            hi[k] = hi[k].max(h);
+                        }
+                    }
+                }
+                narrow((lo, hi))
+            })
+            .try_reduce(empty, merge)?;
         let unit = *lo.iter().min().unwrap_or(&0);
         if unit == i32::MAX {
             return None;
