@@ -1840,8 +1840,8 @@ mod tests {
         assert_eq!(range_without(5..5, &[5, 6, 7, 8]).iter().count(), 0);
     }
 
-    /// The cut of a parallel pass is the value a full selection finds, whatever the
-    /// spread: uniform, clustered into one bin, repeated, all equal, negative.
+    /// The parts the set-up's parallel walks take: every id once, in order, counts within
+    /// one of each other, consecutive ids kept as one range.
     #[test]
     fn a_pass_s_ids_cut_into_parts_keep_every_id_once_in_order_and_balanced() {
         let lists: [Vec<u32>; 5] = [
@@ -1873,6 +1873,8 @@ mod tests {
         assert_eq!(halves[1].0, vec![121..139]);
     }
 
+    /// The cut of a parallel pass is the value a full selection finds, whatever the
+    /// spread: uniform, clustered into one bin, repeated, all equal, negative.
     #[test]
     fn nth_smallest_is_the_selected_value_without_collecting_all() {
         let mut state = 0x9E37_79B9_7F4A_7C15;
