@@ -1463,7 +1463,7 @@ impl<'a> Builder<'a> {
     /// lists) stayed resident in the allocator's heap through the construction's peak
     /// (`docs/tet.md`, *Parallel insertion*). The set-up's walks (the bounding box, the
     /// cut, the slab counts) run on all threads too, over [`Ids::parts`]: serial, they
-    /// took 14.5 ms of a 1M build while no worker inserted (2026-12-05).
+    /// took 14.6-14.8 ms of a 1M lattice build while no worker inserted (2026-12-05).
     fn zoned_pass(&mut self, ids: &Ids, not_across: Option<usize>) -> (Vec<u32>, usize) {
         let pts = self.g.pts;
         let parts = ids.parts(rayon::current_num_threads());
