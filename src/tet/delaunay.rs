@@ -1489,10 +1489,11 @@ impl<'a> Builder<'a> {
         }
         let axis = extent.max_position();
         let k = self.workers.len();
+        let part_refs: Vec<&Ids> = parts.iter().collect();
         let mut cuts = vec![f64::NEG_INFINITY];
         for z in 1..k {
             cuts.push(nth_smallest(
-                &parts.iter().collect::<Vec<&Ids>>(),
+                &part_refs,
                 |&part| part.iter().map(move |v| pts[v as usize][axis]),
                 (lo[axis], hi[axis]),
                 count * z / k,
@@ -1644,15 +1645,17 @@ impl Ids {
     fn parts(&self, k: usize) -> Vec<Ids> {
         let total = self.len();
         let k = k.clamp(1, total.max(1));
+        // Part `p` ends before position `end(p)`, `total * (p + 1) / k` rounded up.
+        let end = |p: usize| (total * (p + 1)).div_ceil(k);
         let mut parts = vec![Ids::default(); k];
-        let mut seen = 0;
+        let (mut p, mut seen) = (0, 0);
         for r in &self.0 {
             let mut r = r.clone();
             while !r.is_empty() {
-                let p = (seen * k / total.max(1)).min(k - 1);
-                // Ids before the next part's first index stay in part `p`.
-                let room = (total * (p + 1)).div_ceil(k) - seen;
-                let take = (r.len()).min(room.max(1)) as u32;
+                while seen == end(p) {
+                    p += 1;
+                }
+                let take = r.len().min(end(p) - seen) as u32;
                 parts[p].0.push(r.start..r.start + take);
                 r.start += take;
                 seen += take as usize;

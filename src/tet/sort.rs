@@ -213,63 +213,54 @@ pub fn insertion_order(points: &[DVec3], (lo, hi): (DVec3, DVec3)) -> InsertionO
     // points counted, then numbered from the counts of the pieces before. (One serial
     // pass until 2026-12-05: 9-14 ms of a 1M build, its random writes to
     // `vertex_of_input` most of it.)
+    // An entry of the sorted keys is the same point as the one before it.
+    let again = |(before, j): (u64, u32), (key, i): (u64, u32)| {
+        before == key && points[j as usize] == points[i as usize]
+    };
     let pieces = key_pieces(&keyed);
-    let mut rest = &mut keyed[..];
-    let mut slices = Vec::with_capacity(pieces.len());
-    for r in &pieces {
-        let (piece, tail) = rest.split_at_mut(r.len());
-        slices.push(piece);
-        rest = tail;
-    }
-    let distinct: Vec<usize> = slices
-        .par_iter_mut()
+    let distinct: Vec<usize> = split_lengths(&mut keyed, pieces.iter().map(Range::len))
+        .into_par_iter()
         .map(|piece| {
-            let mut count = 0;
             for run in piece.chunk_by_mut(|a, b| a.0 == b.0) {
                 if run.len() > 1 {
                     run.sort_unstable_by(|a, b| {
                         lex_cmp(points[a.1 as usize], points[b.1 as usize]).then(a.1.cmp(&b.1))
                     });
-                    count += 1 + run
-                        .windows(2)
-                        .filter(|w| points[w[0].1 as usize] != points[w[1].1 as usize])
-                        .count();
-                } else {
-                    count += 1;
                 }
             }
-            count
+            piece.len() - piece.windows(2).filter(|w| again(w[0], w[1])).count()
         })
         .collect();
     let keyed = &keyed[..];
     let mut order = vec![0u32; distinct.iter().sum()];
     let vertex_of_input: Vec<AtomicU32> =
         (0..n).into_par_iter().map(|_| AtomicU32::new(0)).collect();
-    let mut rest = &mut order[..];
-    let mut outs = Vec::with_capacity(pieces.len());
-    let mut first_id = 0;
-    for (r, &count) in pieces.iter().zip(&distinct) {
-        let (out, tail) = rest.split_at_mut(count);
-        outs.push((r.clone(), out, first_id));
-        rest = tail;
-        first_id += count;
-    }
+    let first_ids = distinct.iter().scan(0, |next, &count| {
+        let first = *next;
+        *next += count;
+        Some(first)
+    });
+    let outs: Vec<_> = pieces
+        .into_iter()
+        .zip(split_lengths(&mut order, distinct.iter().copied()))
+        .zip(first_ids)
+        .collect();
     // Each piece numbers its distinct points and lists the rounds starting in it.
     let starts: Vec<Vec<usize>> = outs
         .into_par_iter()
-        .map(|(range, out, first_id)| {
+        .map(|((range, out), first_id)| {
             let mut starts = Vec::new();
             let mut id = first_id;
             for k in range {
                 let (key, i) = keyed[k];
                 if k > 0 {
-                    let (before, j) = keyed[k - 1];
-                    if before == key && points[j as usize] == points[i as usize] {
+                    let before = keyed[k - 1];
+                    if again(before, keyed[k]) {
                         // `j`'s vertex: the last numbered, in this piece.
                         vertex_of_input[i as usize].store(id as u32 - 1, Relaxed);
                         continue;
                     }
-                    if before >> 58 != key >> 58 {
+                    if before.0 >> 58 != key >> 58 {
                         starts.push(id);
                     }
                 }
@@ -313,6 +304,21 @@ fn key_pieces(keyed: &[(u64, u32)]) -> Vec<Range<usize>> {
         }
     }
     pieces
+}
+
+/// `slice` cut into consecutive pieces of `lengths` (which sum to at most its length).
+fn split_lengths<T>(
+    mut slice: &mut [T],
+    lengths: impl IntoIterator<Item = usize>,
+) -> Vec<&mut [T]> {
+    lengths
+        .into_iter()
+        .map(|len| {
+            let (head, tail) = std::mem::take(&mut slice).split_at_mut(len);
+            slice = tail;
+            head
+        })
+        .collect()
 }
 
 /// The rank of each point in the lexicographic order of `(x, y, z)` (distinct points).
