@@ -1467,22 +1467,17 @@ impl<'a> Builder<'a> {
     fn zoned_pass(&mut self, ids: &Ids, not_across: Option<usize>) -> (Vec<u32>, usize) {
         let pts = self.g.pts;
         let parts = ids.parts(rayon::current_num_threads());
-        let empty = || {
-            (
-                DVec3::splat(f64::INFINITY),
-                DVec3::splat(f64::NEG_INFINITY),
-                0,
-            )
-        };
-        let (lo, hi, count) = parts
+        let count = ids.len();
+        let empty = || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        let (lo, hi) = parts
             .par_iter()
             .map(|part| {
-                part.iter().fold(empty(), |(lo, hi, n), v| {
+                part.iter().fold(empty(), |(lo, hi), v| {
                     let p = pts[v as usize];
-                    (lo.min(p), hi.max(p), n + 1)
+                    (lo.min(p), hi.max(p))
                 })
             })
-            .reduce(empty, |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 + b.2));
+            .reduce(empty, |a, b| (a.0.min(b.0), a.1.max(b.1)));
         let mut extent = hi - lo;
         if let Some(a) = not_across {
             extent[a] = f64::NEG_INFINITY;
