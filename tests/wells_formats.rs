@@ -33,6 +33,24 @@ fn a_value_that_is_not_a_number_names_line_and_column() {
 }
 
 #[test]
+fn a_row_with_more_fields_than_the_header_is_an_error_not_a_lost_value() {
+    // A decimal comma in a comma-separated file: the grade 1,5 would otherwise be read
+    // as 1 and its 5 dropped.
+    let e = samples("well,x,y,z,value\nA,1,2,3,0.5\nA,1,2,4,1,5\n")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("s.csv, line 3")
+            && e.contains("6 fields, but the header names 5 columns")
+            && e.contains("'5'"),
+        "{e}"
+    );
+    // Trailing empty fields (a trailing delimiter, as spreadsheets write) are harmless.
+    let set = samples("well,x,y,z,value\nA,1,2,3,0.5,\nA,1,2,4,1.5,,\n").unwrap();
+    assert_eq!(set.values, vec![Some(0.5), Some(1.5)]);
+}
+
+#[test]
 fn nan_and_infinite_coordinates_are_errors_naming_line_and_column() {
     for bad in ["NaN", "inf", "-inf"] {
         let e = samples(&format!("well,x,y,z,value\nA,1,2,3,1\nA,1,{bad},4,1\n"))

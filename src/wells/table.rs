@@ -52,10 +52,11 @@ impl Table {
     /// Parses `bytes` (with a header row). Non-UTF-8 bytes are replaced, never rejected.
     pub fn parse(file: &str, bytes: &[u8]) -> Result<Table, WellsError> {
         let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+        let delimiter = sniff_delimiter(bytes);
         let mut reader = csv::ReaderBuilder::new()
             .has_headers(false)
             .flexible(true)
-            .delimiter(sniff_delimiter(bytes))
+            .delimiter(delimiter)
             .from_reader(bytes);
         let mut headers: Option<Vec<String>> = None;
         let mut rows = Vec::new();
@@ -88,15 +89,44 @@ impl Table {
             if fields.iter().all(|f| f.trim().is_empty()) {
                 continue;
             }
-            if headers.is_none() {
-                headers = Some(
-                    fields
+            match &headers {
+                None => {
+                    headers = Some(
+                        fields
+                            .iter()
+                            .map(|h| h.trim().trim_start_matches('\u{feff}').to_owned())
+                            .collect(),
+                    );
+                }
+                Some(names) => {
+                    // A field beyond the header's columns would be read by no column: a
+                    // value holding the delimiter unquoted (a decimal comma, say) has
+                    // shifted the row. Refused rather than lost; empty ones (a trailing
+                    // delimiter, as spreadsheets write) are harmless.
+                    let used = fields
                         .iter()
-                        .map(|h| h.trim().trim_start_matches('\u{feff}').to_owned())
-                        .collect(),
-                );
-            } else {
-                rows.push(Row { line, fields });
+                        .rposition(|f| !f.trim().is_empty())
+                        .map_or(0, |last| last + 1);
+                    if used > names.len() {
+                        let hint = if delimiter == b',' {
+                            "; decimal commas need ';' or tabs between fields"
+                        } else {
+                            ""
+                        };
+                        return Err(WellsError::BadLine {
+                            file: file.to_owned(),
+                            line,
+                            message: format!(
+                                "{used} fields, but the header names {} columns (field {used} is '{}'): \
+                                 a value holding the delimiter '{}' must be quoted{hint}",
+                                names.len(),
+                                fields[used - 1].trim(),
+                                char::from(delimiter).escape_default(),
+                            ),
+                        });
+                    }
+                    rows.push(Row { line, fields });
+                }
             }
         }
         let Some(headers) = headers else {
