@@ -86,7 +86,12 @@ impl Table {
                 .iter()
                 .map(|f| String::from_utf8_lossy(f).into_owned())
                 .collect();
-            if fields.iter().all(|f| f.trim().is_empty()) {
+            // Fields up to the last non-empty one; none: a blank row, skipped.
+            let used = fields
+                .iter()
+                .rposition(|f| !f.trim().is_empty())
+                .map_or(0, |last| last + 1);
+            if used == 0 {
                 continue;
             }
             match &headers {
@@ -103,10 +108,6 @@ impl Table {
                     // value holding the delimiter unquoted (a decimal comma, say) has
                     // shifted the row. Refused rather than lost; empty ones (a trailing
                     // delimiter, as spreadsheets write) are harmless.
-                    let used = fields
-                        .iter()
-                        .rposition(|f| !f.trim().is_empty())
-                        .map_or(0, |last| last + 1);
                     if used > names.len() {
                         let hint = if delimiter == b',' {
                             "; decimal commas need ';' or tabs between fields"
