@@ -193,6 +193,17 @@ fn malformed_and_degenerate_files_fail_with_a_located_message() {
             "0 0 0\n1 0 0\nnan 1 0\n0 0 1\n",
             "nan.xyz:3: x is not finite",
         ),
+        // The two usual slips with `.xyz` names: commas, and a header line.
+        (
+            "commas.xyz",
+            "0,0,0\n1,0,0\n0,1,0\n0,0,1\n",
+            "commas.xyz:1: x is not a number: \"0,0,0\" (`.xyz` fields are separated by spaces or tabs; for comma-separated points name the file `.csv`)",
+        ),
+        (
+            "header.xyz",
+            "# exported\nX Y Z\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n",
+            "header.xyz:2: x is not a number: \"X\" (`.xyz` takes no header line: start it with `#`, or use a `.csv` file with columns x,y,z)",
+        ),
         (
             "short.xyz",
             "0 0 0\n1 0\n",
@@ -213,6 +224,16 @@ fn malformed_and_degenerate_files_fail_with_a_located_message() {
             "bad.csv",
             "x,y,z\n0,0,0\n1,zz,0\n",
             "bad.csv:3: y is not a number",
+        ),
+        (
+            "semicolons.csv",
+            "0;0;0\n1;0;0\n",
+            "semicolons.csv:1: the first row is neither three numbers nor a header naming columns x, y, z (or easting, northing, elevation): \"0;0;0\" (`.csv` fields are separated by commas)",
+        ),
+        (
+            "two_columns.csv",
+            "east,north\n0,0\n",
+            "two_columns.csv:1: the first row is neither three numbers nor a header naming columns x, y, z (or easting, northing, elevation): \"east,north\"",
         ),
         ("points.ply", "", "unknown point file type"),
     ];

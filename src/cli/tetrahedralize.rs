@@ -119,11 +119,35 @@ fn read_xyz(path: &Path) -> anyhow::Result<Vec<DVec3>> {
                     path.display()
                 );
             };
-            xyz[k] = parse_coord(text, path, line_no, name)?;
+            xyz[k] = parse_coord(text, path, line_no, name).map_err(|e| {
+                match xyz_hint(text, points.is_empty()) {
+                    Some(hint) => anyhow::anyhow!("{e} ({hint})"),
+                    None => e,
+                }
+            })?;
         }
         points.push(DVec3::from_array(xyz));
     }
     Ok(points)
+}
+
+/// What most likely went wrong when a `.xyz` field is not a number: a comma-separated
+/// file under an `.xyz` name, or a header line before the first point.
+/// `None` when the field is a number (then it was not finite, and the error says so).
+fn xyz_hint(text: &str, first_point: bool) -> Option<&'static str> {
+    if text.trim().parse::<f64>().is_ok() {
+        None
+    } else if text.contains([',', ';']) {
+        Some(
+            "`.xyz` fields are separated by spaces or tabs; for comma-separated points name the file `.csv`",
+        )
+    } else if first_point {
+        Some(
+            "`.xyz` takes no header line: start it with `#`, or use a `.csv` file with columns x,y,z",
+        )
+    } else {
+        None
+    }
 }
 
 fn read_csv(path: &Path) -> anyhow::Result<Vec<DVec3>> {
@@ -154,10 +178,19 @@ fn read_csv(path: &Path) -> anyhow::Result<Vec<DVec3>> {
             find(&["z", "elevation", "elev", "rl"]),
         ) {
             (Some(x), Some(y), Some(z)) => [x, y, z],
-            _ => bail!(
-                "{}:1: header needs columns x, y, z (or easting, northing, elevation)",
-                path.display()
-            ),
+            _ => {
+                let found = first.iter().collect::<Vec<_>>().join(",");
+                let hint = if found.contains(';') || found.contains('\t') {
+                    " (`.csv` fields are separated by commas)"
+                } else {
+                    ""
+                };
+                bail!(
+                    "{}:1: the first row is neither three numbers nor a header naming columns \
+                     x, y, z (or easting, northing, elevation): {found:?}{hint}",
+                    path.display()
+                )
+            }
         }
     };
     let mut push = |record: &csv::StringRecord, line: usize| -> anyhow::Result<()> {
