@@ -447,6 +447,34 @@ async fn invalid_inputs_answer_422_naming_the_field() {
         );
         assert_eq!(answer.json()["field"], field, "{body}");
     }
+    // The reasons speak of JSON values, not of the service's Rust types.
+    let reasons = [
+        (
+            json!({"inputs": {"samples_csv": "a", "thresholds": "NaN"}}),
+            "thresholds: expected a number or an array of numbers, got \"NaN\"",
+        ),
+        (
+            json!({"inputs": {"samples_csv": "a", "thresholds": {"low": 1}}}),
+            "thresholds: expected a number or an array of numbers, got {\"low\":1}",
+        ),
+        (
+            json!({"inputs": {"samples_csv": "a", "thresholds": [1], "relax": 2.5}}),
+            "relax: invalid type: floating point `2.5`, expected a whole number",
+        ),
+        (
+            json!({"inputs": {"samples_csv": "a", "thresholds": [1], "min_volume": "big"}}),
+            "min_volume: invalid type: string \"big\", expected a number",
+        ),
+        (
+            json!({"inputs": null}),
+            "inputs: invalid type: null, expected an object of inputs",
+        ),
+    ];
+    for (body, detail) in reasons {
+        let answer = app.execute(body.clone(), false).await;
+        assert_eq!(answer.status, StatusCode::UNPROCESSABLE_ENTITY, "{body}");
+        assert_eq!(answer.json()["detail"], detail, "{body}");
+    }
     let not_json = app
         .send(
             Request::post("/processes/dmt-contour/execution")

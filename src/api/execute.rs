@@ -255,9 +255,11 @@ fn inputs_from_json(body: &[u8]) -> Result<ProcessInputs, Problem> {
     if let Some(inputs) = inputs.as_object_mut() {
         unwrap_qualified_values(inputs);
     }
-    let request: ExecuteRequest = serde_path_to_error::deserialize(document).map_err(|e| {
+    let request: ExecuteRequest = serde_path_to_error::deserialize(&document).map_err(|e| {
         let field = field_at_fault(&e);
-        Problem::invalid_input(&field, format!("{field}: {}", e.inner()))
+        let sent = document.get("inputs").and_then(|inputs| inputs.get(&field));
+        let reason = plain_reason(&e.inner().to_string(), sent);
+        Problem::invalid_input(&field, format!("{field}: {reason}"))
     })?;
     if let Some(response) = &request.response
         && response != "document"
@@ -316,6 +318,35 @@ fn field_at_fault(error: &serde_path_to_error::Error<serde_json::Error>) -> Stri
         Some(field) if !field.is_empty() && field != "?" => field.to_string(),
         _ => "inputs".to_string(),
     }
+}
+
+/// serde's reason in the client's terms: no Rust type names (`u32`, `struct
+/// ProcessInputs`, `untagged enum Thresholds`), and the value sent where serde's message
+/// does not quote it.
+fn plain_reason(reason: &str, sent: Option<&Value>) -> String {
+    if reason.contains("did not match any variant of untagged enum Thresholds") {
+        let mut shown = sent.map_or_else(String::new, Value::to_string);
+        if shown.len() > 80 {
+            let cut = (0..=80)
+                .rev()
+                .find(|&i| shown.is_char_boundary(i))
+                .unwrap_or(0);
+            shown.truncate(cut);
+            shown.push_str("...");
+        }
+        return format!("expected a number or an array of numbers, got {shown}");
+    }
+    reason
+        .replace(
+            "expected struct ProcessInputs",
+            "expected an object of inputs",
+        )
+        .replace(
+            "expected struct ExecuteRequest",
+            "expected an object {\"inputs\": {...}}",
+        )
+        .replace("expected u32", "expected a whole number")
+        .replace("expected f64", "expected a number")
 }
 
 const TEXT_FIELDS: [&str; 10] = [
