@@ -327,11 +327,7 @@ fn plain_reason(reason: &str, sent: Option<&Value>) -> String {
     if reason.contains("did not match any variant of untagged enum Thresholds") {
         let mut shown = sent.map_or_else(String::new, Value::to_string);
         if shown.len() > 80 {
-            let cut = (0..=80)
-                .rev()
-                .find(|&i| shown.is_char_boundary(i))
-                .unwrap_or(0);
-            shown.truncate(cut);
+            shown.truncate(shown.floor_char_boundary(80));
             shown.push_str("...");
         }
         return format!("expected a number or an array of numbers, got {shown}");

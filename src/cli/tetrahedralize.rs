@@ -78,10 +78,18 @@ fn read_points(path: &Path) -> anyhow::Result<Vec<DVec3>> {
     }
 }
 
-fn parse_coord(text: &str, path: &Path, line: usize, field: &str) -> anyhow::Result<f64> {
+/// `hint` is asked only when `text` is not a number, and added to that error.
+fn parse_coord(
+    text: &str,
+    path: &Path,
+    line: usize,
+    field: &str,
+    hint: impl FnOnce() -> Option<&'static str>,
+) -> anyhow::Result<f64> {
     let value: f64 = text.trim().parse().map_err(|_| {
+        let hint = hint().map(|h| format!(" ({h})")).unwrap_or_default();
         anyhow::anyhow!(
-            "{}:{line}: {field} is not a number: {text:?}",
+            "{}:{line}: {field} is not a number: {text:?}{hint}",
             path.display()
         )
     })?;
@@ -119,11 +127,8 @@ fn read_xyz(path: &Path) -> anyhow::Result<Vec<DVec3>> {
                     path.display()
                 );
             };
-            xyz[k] = parse_coord(text, path, line_no, name).map_err(|e| {
-                match xyz_hint(text, points.is_empty()) {
-                    Some(hint) => anyhow::anyhow!("{e} ({hint})"),
-                    None => e,
-                }
+            xyz[k] = parse_coord(text, path, line_no, name, || {
+                xyz_hint(text, points.is_empty())
             })?;
         }
         points.push(DVec3::from_array(xyz));
@@ -133,11 +138,8 @@ fn read_xyz(path: &Path) -> anyhow::Result<Vec<DVec3>> {
 
 /// What most likely went wrong when a `.xyz` field is not a number: a comma-separated
 /// file under an `.xyz` name, or a header line before the first point.
-/// `None` when the field is a number (then it was not finite, and the error says so).
 fn xyz_hint(text: &str, first_point: bool) -> Option<&'static str> {
-    if text.trim().parse::<f64>().is_ok() {
-        None
-    } else if text.contains([',', ';']) {
+    if text.contains([',', ';']) {
         Some(
             "`.xyz` fields are separated by spaces or tabs; for comma-separated points name the file `.csv`",
         )
@@ -180,7 +182,7 @@ fn read_csv(path: &Path) -> anyhow::Result<Vec<DVec3>> {
             (Some(x), Some(y), Some(z)) => [x, y, z],
             _ => {
                 let found = first.iter().collect::<Vec<_>>().join(",");
-                let hint = if found.contains(';') || found.contains('\t') {
+                let hint = if found.contains([';', '\t']) {
                     " (`.csv` fields are separated by commas)"
                 } else {
                     ""
@@ -199,7 +201,7 @@ fn read_csv(path: &Path) -> anyhow::Result<Vec<DVec3>> {
             let Some(text) = record.get(columns[k]) else {
                 bail!("{}:{line}: missing column {name}", path.display());
             };
-            xyz[k] = parse_coord(text, path, line, name)?;
+            xyz[k] = parse_coord(text, path, line, name, || None)?;
         }
         points.push(DVec3::from_array(xyz));
         Ok(())
