@@ -74,6 +74,25 @@ def _manifold(vertices: np.ndarray, faces: np.ndarray):
     return m, str(m.status())
 
 
+_TRUTH_MANIFOLDS: dict = {}
+
+
+def truth_manifolds(truth: Truth, origin: np.ndarray):
+    """The true lenses as manifold3d solids relative to `origin` (kept for the next call
+    on the same layout)."""
+    key = (truth.layout, truth.seed, tuple(origin))
+    if key not in _TRUTH_MANIFOLDS:
+        lenses = []
+        for v, f in truth.lens_meshes(TRUTH_LEVEL, origin):
+            m, status = _manifold(v, f)
+            if "NoError" not in status:
+                raise RuntimeError(f"truth mesh is not a manifold: {status}")
+            lenses.append(m)
+        _TRUTH_MANIFOLDS.clear()
+        _TRUTH_MANIFOLDS[key] = lenses
+    return _TRUTH_MANIFOLDS[key]
+
+
 def exact_overlaps(truth: Truth, bodies: list[Body], origin: np.ndarray):
     """Exact volumes by manifold3d: (union volume, intersection with the truth, per body
     per lens intersection volumes), or None with the reason when a body is not a valid
@@ -86,16 +105,17 @@ def exact_overlaps(truth: Truth, bodies: list[Body], origin: np.ndarray):
         if "NoError" not in status:
             return None, f"body {i + 1}: {status}"
         ms.append(m)
-    lenses = []
-    for v, f in truth.lens_meshes(TRUTH_LEVEL, origin):
-        m, status = _manifold(v, f)
-        if "NoError" not in status:
-            raise RuntimeError(f"truth mesh is not a manifold: {status}")
-        lenses.append(m)
+    lenses = truth_manifolds(truth, origin)
+    boxes = [l.bounds() for l in truth.lenses]
     union = m3.Manifold.batch_boolean(ms, m3.OpType.Add) if ms else m3.Manifold()
     true_union = m3.Manifold.batch_boolean(lenses, m3.OpType.Add)
     inter = (union ^ true_union).volume() if ms else 0.0
-    per = np.array([[(b ^ l).volume() for l in lenses] for b in ms]).reshape(len(ms), len(lenses))
+    per = np.zeros((len(ms), len(lenses)))
+    for i, (b, m) in enumerate(zip(bodies, ms)):
+        lo, hi = b.vertices.min(axis=0), b.vertices.max(axis=0)
+        for k, (l, (llo, lhi)) in enumerate(zip(lenses, boxes)):
+            if np.all(lo <= lhi) and np.all(llo <= hi):
+                per[i, k] = (m ^ l).volume()
     return (union.volume(), inter, per), None
 
 

@@ -289,3 +289,41 @@ def test_ferreus_normalises_trend_ratios_by_their_geometric_mean():
     assert np.allclose(field((2.0, 2.0, 2.0)), field(None), atol=1e-6)
     # 8,1,1 has geometric mean 2: the same as 4,0.5,0.5.
     assert np.allclose(field((8.0, 1.0, 1.0)), field((4.0, 0.5, 0.5)), atol=1e-6)
+
+
+# -- drivers ------------------------------------------------------------------------------
+
+def test_folds_partition_the_holes():
+    import tom_zone_holdout as tz
+
+    holes = [f"H{i:03d}" for i in range(206)]
+    folds = [tz.fold_holes(holes, k) for k in range(5)]
+    assert set().union(*folds) == set(holes)
+    assert sum(len(f) for f in folds) == len(holes)
+    assert {len(f) for f in folds} == {41, 42}
+    assert "H000" in folds[0] and "H005" in folds[0] and "H004" in folds[4]
+
+
+def test_balanced_accuracy_of_held_out_assays():
+    import tom_zone_holdout as tz
+
+    values = np.array([6.0, 7.0, 5.0, 1.0, 2.0, 4.9, 0.1, 3.0])
+    inside = np.array([True, False, True, False, True, False, False, False])
+    s = tz.scores(inside, values)
+    assert s["ore_inside"] == pytest.approx(2 / 3)
+    assert s["waste_outside"] == pytest.approx(4 / 5)
+    assert s["balanced"] == pytest.approx((2 / 3 + 4 / 5) / 2)
+
+
+@pytest.mark.skipif(not Path("/usr/bin/time").exists(), reason="needs GNU time")
+def test_peak_memory_is_the_child_s_not_the_parent_s(tmp_path):
+    import bench
+
+    ballast = np.ones(40_000_000)  # 320 MB held by this process while the child runs
+    small = bench.measured([sys.executable, "-c", "pass"], tmp_path / "small.log")
+    big = bench.measured([sys.executable, "-c", "b = bytearray(300_000_000); b[::4096] = b'x' * len(b[::4096])"],
+                         tmp_path / "big.log")
+    assert ballast.sum() > 0
+    assert small["exit"] == 0 and not small["peak_is_upper_bound"]
+    assert small["peak_mb"] < 100
+    assert 280 < big["peak_mb"] < 450
