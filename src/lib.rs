@@ -20,6 +20,7 @@ pub mod dmt;
 pub mod export;
 pub mod grid;
 pub mod jobs;
+pub mod process;
 pub mod progress;
 pub mod tet;
 pub mod wells;

@@ -14,10 +14,10 @@ use tokio::sync::Notify;
 use tower::ServiceExt;
 use wellmesh::api::{self, ApiConfig, AppState};
 use wellmesh::jobs::{
-    JobFailure, JobMetrics, JobStore, Pipeline, ProcessInputs, SqliteStore, StoredOutput,
-    WorkerConfig, WorkerPool,
+    JobFailure, JobMetrics, JobStore, Pipeline, SqliteStore, StoredOutput, WorkerConfig, WorkerPool,
 };
-use wellmesh::progress::Progress;
+use wellmesh::process::ProcessInputs;
+use wellmesh::progress::{Progress, Stage};
 
 /// Answers a summary naming the thresholds and point count, and a GLB-like blob;
 /// with `hold` set it waits (checking cancellation) until the flag is cleared.
@@ -28,12 +28,9 @@ struct TestPipeline {
 }
 
 impl Pipeline for TestPipeline {
-    fn run(
-        &self,
-        inputs: &ProcessInputs,
-        progress: &dyn Progress,
-    ) -> Result<Vec<StoredOutput>, JobFailure> {
-        progress.report("tetrahedralize", 0.5);
+    fn run(&self, inputs: &[u8], progress: &dyn Progress) -> Result<Vec<StoredOutput>, JobFailure> {
+        let inputs: ProcessInputs = serde_json::from_slice(inputs).expect("stored inputs");
+        progress.report(Stage::Tetrahedralize, 0.5);
         while self.hold.load(Ordering::SeqCst) {
             if progress.is_cancelled() {
                 self.saw_cancel.store(true, Ordering::SeqCst);
@@ -369,7 +366,7 @@ async fn results_are_not_ready_while_a_job_runs_and_dismissal_cancels_it() {
         "{running}"
     );
     assert_eq!(running["status"], "running");
-    assert_eq!(running["progress"], 30);
+    assert_eq!(running["progress"], 42);
     assert_eq!(results.status, StatusCode::NOT_FOUND);
     assert_eq!(
         results.json()["type"],

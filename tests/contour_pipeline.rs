@@ -2,7 +2,9 @@
 //! what a geologist relies on (one closed body, honest volume and area).
 
 use glam::DVec3;
-use wellmesh::contour::{self, Anisotropy, ContourRequest, UnknownMode};
+use wellmesh::contour::{
+    self, Anisotropy, ContourOptions, ContourRequest, Thresholds, UnknownMode,
+};
 use wellmesh::dmt::{Method, Placement};
 use wellmesh::progress::NoProgress;
 use wellmesh::wells::{ReadReport, SampleSet, Well};
@@ -87,7 +89,7 @@ fn wells(
 fn request(samples: SampleSet, thresholds: Vec<f64>, method: Option<Method>) -> ContourRequest {
     ContourRequest {
         method,
-        ..ContourRequest::new(samples, thresholds)
+        ..ContourRequest::samples(samples, Thresholds::new(thresholds).expect("thresholds"))
     }
 }
 
@@ -425,7 +427,7 @@ fn anisotropy_is_inverted_on_output() {
     let plain =
         contour::run(&request(samples.clone(), vec![0.0], None), &NoProgress).expect("contour");
     let mut req = request(samples, vec![0.0], None);
-    req.anisotropy = Some(Anisotropy::scale(DVec3::new(1.0, 1.0, 5.0)));
+    req.anisotropy = Some(Anisotropy::scale(DVec3::new(1.0, 1.0, 5.0)).unwrap());
     let stretched = contour::run(&req, &NoProgress).expect("contour");
     let (a, b) = (&plain.shells[0].bodies[0], &stretched.shells[0].bodies[0]);
     assert!(b.closed);
@@ -440,11 +442,7 @@ fn anisotropy_is_inverted_on_output() {
 
     // A rotated frame (azimuth 30, dip 20) maps back too.
     let mut req = request(plain.samples.clone(), vec![0.0], None);
-    req.anisotropy = Some(Anisotropy {
-        scale: DVec3::new(0.5, 1.0, 2.0),
-        azimuth_deg: 30.0,
-        dip_deg: 20.0,
-    });
+    req.anisotropy = Some(Anisotropy::new(DVec3::new(0.5, 1.0, 2.0), 30.0, 20.0).unwrap());
     let rotated = contour::run(&req, &NoProgress).expect("contour");
     let c = &rotated.shells[0].bodies[0];
     assert!(c.closed);
@@ -459,23 +457,15 @@ fn anisotropy_is_inverted_on_output() {
 
 #[test]
 fn the_anisotropy_matrix_is_a_rotation_then_a_scale() {
-    let m = Anisotropy::scale(DVec3::new(2.0, 3.0, 4.0)).matrix();
+    let m = Anisotropy::scale(DVec3::new(2.0, 3.0, 4.0))
+        .unwrap()
+        .matrix();
     assert!((m * DVec3::new(1.0, 1.0, 1.0) - DVec3::new(2.0, 3.0, 4.0)).length() < 1e-12);
-    let r = Anisotropy {
-        scale: DVec3::ONE,
-        azimuth_deg: 0.0,
-        dip_deg: 0.0,
-    }
-    .matrix();
+    let r = Anisotropy::new(DVec3::ONE, 0.0, 0.0).unwrap().matrix();
     // Azimuth 0 is north: north becomes the first axis.
     assert!((r * DVec3::Y - DVec3::X).length() < 1e-12);
     assert!((r.determinant() - 1.0).abs() < 1e-12);
-    let d = Anisotropy {
-        scale: DVec3::ONE,
-        azimuth_deg: 90.0,
-        dip_deg: 30.0,
-    }
-    .matrix();
+    let d = Anisotropy::new(DVec3::ONE, 90.0, 30.0).unwrap().matrix();
     // Dipping 30 degrees: a line going north and down 30 degrees becomes horizontal.
     let down_dip = DVec3::new(0.0, 30f64.to_radians().cos(), -30f64.to_radians().sin());
     assert!((d * down_dip - DVec3::Y).length() < 1e-12);
@@ -493,10 +483,102 @@ fn requests_without_known_samples_or_with_bad_thresholds_are_refused() {
         contour::run(&request(samples.clone(), vec![], None), &NoProgress),
         Err(contour::ContourError::NoThresholds)
     ));
-    assert!(matches!(
-        contour::run(&request(samples, vec![f64::NAN], None), &NoProgress),
-        Err(contour::ContourError::BadThreshold(_))
-    ));
+    let nan = Thresholds::new(vec![0.5, f64::NAN]).unwrap_err();
+    assert_eq!(nan.field, "thresholds");
+    assert!(nan.reason.contains("NaN"), "{nan}");
+}
+
+#[test]
+fn options_are_checked_once_and_name_the_option_at_fault() {
+    let field = |options: ContourOptions| options.check().unwrap_err().field;
+    let base = || ContourOptions {
+        thresholds: vec![0.5],
+        ..ContourOptions::default()
+    };
+    assert_eq!(base().check(), Ok(()));
+    assert_eq!(
+        field(ContourOptions {
+            thresholds: vec![0.0; 65],
+            ..base()
+        }),
+        "thresholds"
+    );
+    assert_eq!(
+        field(ContourOptions {
+            method: Some("best".into()),
+            ..base()
+        }),
+        "method"
+    );
+    assert_eq!(
+        field(ContourOptions {
+            lattice: Some(3),
+            ..base()
+        }),
+        "lattice"
+    );
+    let ibc_lattice = ContourOptions {
+        method: Some("ibc".into()),
+        lattice: Some(7),
+        ..base()
+    };
+    assert_eq!(field(ibc_lattice), "lattice");
+    assert_eq!(
+        field(ContourOptions {
+            unknown: Some("maybe".into()),
+            ..base()
+        }),
+        "unknown"
+    );
+    let flat = ContourOptions {
+        anisotropy: Some([1.0, 0.0, 1.0]),
+        ..base()
+    };
+    assert_eq!(field(flat), "anisotropy");
+    assert_eq!(
+        field(ContourOptions {
+            azimuth: Some(30.0),
+            ..base()
+        }),
+        "azimuth"
+    );
+    let turned = ContourOptions {
+        anisotropy: Some([1.0, 1.0, 5.0]),
+        azimuth: Some(30.0),
+        dip: Some(f64::INFINITY),
+        ..base()
+    };
+    assert_eq!(field(turned), "dip");
+    assert_eq!(
+        field(ContourOptions {
+            min_volume: Some(-1.0),
+            ..base()
+        }),
+        "min_volume"
+    );
+    assert_eq!(
+        field(ContourOptions {
+            relax: Some(51),
+            ..base()
+        }),
+        "relax"
+    );
+
+    // A lattice without a method applies to the default curvature placement of 0/1 data.
+    let samples = wells(3, 25.0, 5.0, 0.0, -20.0, 1, |p| {
+        Some(f64::from(p.z < -10.0))
+    });
+    let request = ContourOptions {
+        lattice: Some(9),
+        ..base()
+    }
+    .into_request(contour::Source::Samples(samples))
+    .unwrap();
+    assert_eq!(
+        request.resolved_method(true),
+        Method::Dmt(Placement::Curvature { lattice: 9 })
+    );
+    assert_eq!(request.resolved_method(false), Method::Dmt(Placement::Ibc));
 }
 
 /// Volume and area errors of every method and triangulation on the UTM ellipsoid wells:

@@ -8,7 +8,7 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 use serde_json::Value;
-use wellmesh::contour::{self, ContourRequest, ContourResult, UnknownMode};
+use wellmesh::contour::{self, ContourRequest, ContourResult, Thresholds, UnknownMode};
 use wellmesh::export::{OutputOptions, all_outputs};
 use wellmesh::progress::NoProgress;
 use wellmesh::wells::{ReadReport, SampleSet, Well};
@@ -74,14 +74,8 @@ fn contoured() -> ContourResult {
         },
     };
     let request = ContourRequest {
-        samples,
-        thresholds: vec![0.2, 0.6],
-        method: None,
         unknown: UnknownMode::Drop,
-        anisotropy: None,
-        grid: None,
-        min_volume: None,
-        relax: wellmesh::dmt::relax::DEFAULT_SWEEPS,
+        ..ContourRequest::samples(samples, Thresholds::new(vec![0.2, 0.6]).unwrap())
     };
     contour::run(&request, &NoProgress).expect("the pipeline contours the lenses")
 }

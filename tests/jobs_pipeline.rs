@@ -1,6 +1,6 @@
 //! The service's pipeline on real inputs: what an HTTP client gets in the stored outputs.
 
-use wellmesh::jobs::{ContourPipeline, Pipeline, ProcessInputs};
+use wellmesh::process::{ContourPipeline, ProcessInputs};
 use wellmesh::progress::NoProgress;
 
 fn inputs(extra: serde_json::Value) -> ProcessInputs {
@@ -18,7 +18,7 @@ fn inputs(extra: serde_json::Value) -> ProcessInputs {
 
 fn glb_node_names(extra: serde_json::Value) -> Vec<String> {
     let outputs = ContourPipeline
-        .run(&inputs(extra), &NoProgress)
+        .run_inputs(&inputs(extra), &NoProgress)
         .expect("pipeline");
     let glb = outputs
         .iter()

@@ -8,10 +8,11 @@ use std::time::Duration;
 
 use tokio::sync::Notify;
 use wellmesh::jobs::{
-    FailureKind, JobFailure, JobMetrics, JobState, JobStore, Pipeline, PostgresStore,
-    ProcessInputs, SqliteStore, StoredOutput, Thresholds, WorkerConfig, WorkerPool, now_ms,
+    FailureKind, JobFailure, JobMetrics, JobState, JobStore, Pipeline, PostgresStore, SqliteStore,
+    StoredOutput, WorkerConfig, WorkerPool, now_ms,
 };
-use wellmesh::progress::Progress;
+use wellmesh::process::{ProcessInputs, Thresholds};
+use wellmesh::progress::{Progress, Stage};
 
 async fn sqlite_store() -> Arc<dyn JobStore> {
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
@@ -81,18 +82,15 @@ struct ScriptedPipeline {
 }
 
 impl Pipeline for ScriptedPipeline {
-    fn run(
-        &self,
-        inputs: &ProcessInputs,
-        progress: &dyn Progress,
-    ) -> Result<Vec<StoredOutput>, JobFailure> {
+    fn run(&self, inputs: &[u8], progress: &dyn Progress) -> Result<Vec<StoredOutput>, JobFailure> {
+        let inputs: ProcessInputs = serde_json::from_slice(inputs).expect("stored inputs");
         let script = inputs.variable.clone().unwrap_or_default();
         let tag = inputs.crs.clone().unwrap_or_default();
         *self.runs.lock().unwrap().entry(tag.clone()).or_default() += 1;
         let now = self.running.fetch_add(1, Ordering::SeqCst) + 1;
         self.most_at_once.fetch_max(now, Ordering::SeqCst);
         let outcome = (|| {
-            progress.report("tetrahedralize", 0.1);
+            progress.report(Stage::Tetrahedralize, 0.1);
             let millis = match script.as_str() {
                 "panic" => panic!("scripted panic"),
                 "forever" => u64::MAX,

@@ -330,7 +330,7 @@ fn non_finite_coordinates_are_rejected_with_their_index() {
 struct CancelAfter(AtomicUsize);
 
 impl Progress for CancelAfter {
-    fn report(&self, _stage: &str, _fraction: f64) {}
+    fn report(&self, _stage: wellmesh::progress::Stage, _fraction: f64) {}
     fn is_cancelled(&self) -> bool {
         self.0.fetch_add(1, Ordering::Relaxed) >= 1
     }

@@ -18,7 +18,8 @@ use super::AppState;
 use super::documents::{PROCESS_ID, StatusInfo, base_url, job_href};
 use super::jobs::results_for;
 use super::problem::Problem;
-use crate::jobs::{FailureKind, JobState, ProcessInputs, now_ms};
+use crate::jobs::{FailureKind, JobState, now_ms};
+use crate::process::ProcessInputs;
 
 /// The OGC execute request body.
 #[derive(Debug, Deserialize, utoipa::ToSchema)]
@@ -63,9 +64,15 @@ pub struct MultipartInputs {
     crs: Option<String>,
     unit: Option<String>,
     method: Option<String>,
+    /// Lattice resolution of the curvature placement (4 to 12).
+    lattice: Option<u32>,
     unknown: Option<String>,
     /// `sx,sy,sz` or a JSON array.
     anisotropy: Option<String>,
+    /// Azimuth of the anisotropy's first axis, degrees.
+    azimuth: Option<f64>,
+    /// Dip of the anisotropy's second axis, degrees.
+    dip: Option<f64>,
     min_volume: Option<f64>,
     /// Sweeps of the shape relaxation of IbC and CoI vertices (0 to 50; default 3).
     relax: Option<u32>,
@@ -406,13 +413,13 @@ async fn inputs_from_multipart(
             "thresholds" | "anisotropy" => {
                 inputs.insert(name.clone(), number_list(&name, &text)?);
             }
-            "min_volume" | "composite_length" => {
+            "min_volume" | "composite_length" | "azimuth" | "dip" => {
                 let value: f64 = text.trim().parse().map_err(|_| {
                     Problem::invalid_input(&name, format!("{:?} is not a number", text.trim()))
                 })?;
                 inputs.insert(name, Value::from(value));
             }
-            "relax" => {
+            "relax" | "lattice" => {
                 let value: u32 = text.trim().parse().map_err(|_| {
                     Problem::invalid_input(
                         &name,
@@ -486,7 +493,10 @@ mod tests {
         let body = br#"{"inputs": {"thresholds": {"value": [0.5]}, "samples_csv": {"value": "well,x,y,z,value\n"},
                         "wells": {"wells": [], "value": 1}}}"#;
         let inputs = inputs_from_json(body).unwrap();
-        assert_eq!(inputs.thresholds, crate::jobs::Thresholds::Many(vec![0.5]));
+        assert_eq!(
+            inputs.thresholds,
+            crate::process::Thresholds::Many(vec![0.5])
+        );
         assert_eq!(inputs.samples_csv.as_deref(), Some("well,x,y,z,value\n"));
         assert!(inputs.wells.unwrap().get("wells").is_some());
     }

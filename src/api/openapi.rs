@@ -14,7 +14,8 @@ use super::documents::{
 use super::execute::{ExecuteRequest, MultipartInputs};
 use super::ops::Health;
 use super::problem::Problem;
-use crate::jobs::{JobState, ProcessInputs, Thresholds};
+use crate::jobs::JobState;
+use crate::process::{ProcessInputs, Thresholds};
 
 /// The service's OpenAPI description.
 #[derive(OpenApi)]

@@ -5,11 +5,7 @@
 //! so the summary's figures are those of the triangles in the GLB.
 use std::process::ExitCode;
 
-use anyhow::Context;
-use glam::DVec3;
-use wellmesh::contour::{self, Anisotropy, ContourRequest, GridSource, UnknownMode};
-use wellmesh::dmt::{Method, Placement};
-use wellmesh::wells::{ReadReport, SampleSet};
+use wellmesh::contour::{self, ContourOptions, GridSource, Source};
 
 use super::Bar;
 use super::grid_input::GridArgs;
@@ -55,26 +51,26 @@ pub struct Args {
     #[arg(short, long, value_name = "METHOD")]
     pub method: Option<String>,
 
-    /// Lattice resolution N of the curvature placement (candidates (aP+bQ+cR+dS)/N).
-    #[arg(long, value_name = "N", default_value_t = wellmesh::dmt::DEFAULT_CURVATURE_LATTICE)]
-    pub lattice: u32,
+    /// Lattice resolution N of the curvature placement (candidates (aP+bQ+cR+dS)/N, N from
+    /// 4 to 12; default 7).
+    #[arg(long, value_name = "N")]
+    pub lattice: Option<u32>,
 
     /// Sweeps of the shape relaxation of ibc and coi vertices: each slides within its
     /// tetrahedron's marching-tetrahedra polygon to cut slivers (triangles with an angle
     /// under 10 degrees); bodies keep marching tetrahedra's volume. 0 keeps the paper's
-    /// positions exactly.
-    #[arg(long, value_name = "SWEEPS", default_value_t = wellmesh::dmt::relax::DEFAULT_SWEEPS as u16,
-          value_parser = clap::value_parser!(u16).range(0..=wellmesh::dmt::relax::MAX_SWEEPS as i64))]
-    pub relax: u16,
+    /// positions. Default 3, at most 50.
+    #[arg(long, value_name = "SWEEPS")]
+    pub relax: Option<u32>,
 
     /// "Don't know" samples: drop (default) or bounds.
-    #[arg(long, value_enum, default_value = "drop")]
-    pub unknown: UnknownArg,
+    #[arg(long, value_enum)]
+    pub unknown: Option<UnknownArg>,
 
     /// Scale x, y, z before tetrahedralizing (in the rotated frame when --azimuth/--dip are
     /// given), inverted on output; e.g. 1,1,5 makes vertical distances count five times.
-    #[arg(long, value_name = "SX,SY,SZ")]
-    pub anisotropy: Option<String>,
+    #[arg(long, value_name = "SX,SY,SZ", value_parser = parse_triple)]
+    pub anisotropy: Option<[f64; 3]>,
 
     /// Azimuth (degrees clockwise from north) of the anisotropy's first axis.
     #[arg(long, value_name = "DEG", requires = "anisotropy")]
@@ -108,73 +104,66 @@ Examples:
   wellmesh contour --grid head.nhdr -t 1150 --split 5 -o head.glb
 
 Exit codes: 0 success; 1 the input or the computation failed (the message names the file,
-row and field); 2 bad command-line arguments.";
+row and field); 2 bad command-line arguments (a flag's value out of its range included).";
 
-fn parse_triple(text: &str) -> anyhow::Result<DVec3> {
-    let parts: Vec<f64> = text
-        .split(',')
-        .map(|p| p.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("--anisotropy {text:?}: expected three numbers SX,SY,SZ"))?;
-    match parts.as_slice() {
-        &[x, y, z] => Ok(DVec3::new(x, y, z)),
-        _ => anyhow::bail!("--anisotropy {text:?}: expected three numbers SX,SY,SZ"),
+/// `SX,SY,SZ` as three numbers.
+fn parse_triple(text: &str) -> Result<[f64; 3], String> {
+    let parts: Result<Vec<f64>, _> = text.split(',').map(|p| p.trim().parse::<f64>()).collect();
+    match parts.as_deref() {
+        Ok(&[x, y, z]) => Ok([x, y, z]),
+        _ => Err(format!("{text:?}: expected three numbers SX,SY,SZ")),
+    }
+}
+
+impl Args {
+    /// The contouring options these flags give, as the service's execute inputs of the same
+    /// names would.
+    pub fn options(&self) -> ContourOptions {
+        ContourOptions {
+            thresholds: self.thresholds.clone(),
+            method: self.method.clone(),
+            lattice: self.lattice,
+            unknown: self.unknown.map(|u| {
+                match u {
+                    UnknownArg::Drop => "drop",
+                    UnknownArg::Bounds => "bounds",
+                }
+                .to_string()
+            }),
+            anisotropy: self.anisotropy,
+            azimuth: self.azimuth,
+            dip: self.dip,
+            min_volume: self.min_volume,
+            relax: self.relax,
+        }
+    }
+
+    /// Reads the input: a grid, or samples from wells, drill holes or LAS logs.
+    fn source(&self) -> anyhow::Result<Source> {
+        if !self.grid.is_set() {
+            return Ok(Source::Samples(self.input.load()?));
+        }
+        let volume = self
+            .grid
+            .load_with_variable(self.input.variable.as_deref())?;
+        Ok(Source::Grid(GridSource {
+            volume,
+            split: self.grid.cube_split(),
+            crs: self.input.crs.clone(),
+            unit: self.input.unit_name().unwrap_or("m").to_string(),
+        }))
     }
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let method = match &args.method {
-        Some(name) => Some(
-            match name
-                .parse::<Method>()
-                .map_err(|e| anyhow::anyhow!("--method: {e}"))?
-            {
-                Method::Dmt(Placement::Curvature { .. }) => Method::Dmt(Placement::Curvature {
-                    lattice: args.lattice,
-                }),
-                m => m,
-            },
-        ),
-        None => None,
-    };
-    let anisotropy = match &args.anisotropy {
-        Some(text) => Some(Anisotropy {
-            scale: parse_triple(text)?,
-            azimuth_deg: args.azimuth.unwrap_or(90.0),
-            dip_deg: args.dip.unwrap_or(0.0),
-        }),
-        None => None,
-    };
-    let (samples, grid) = if args.grid.is_set() {
-        let volume = args
-            .grid
-            .load_with_variable(args.input.variable.as_deref())?;
-        let samples = SampleSet {
-            origin: volume.origin,
-            crs: args.input.crs.clone().or_else(|| volume.crs.clone()),
-            unit: volume.unit.clone().unwrap_or_else(|| "m".to_string()),
-            wells: vec![],
-            points: vec![],
-            values: vec![],
-            well_of: vec![],
-            report: ReadReport::default(),
-        };
-        let split = args.grid.cube_split();
-        (samples, Some(GridSource { volume, split }))
-    } else {
-        (args.input.load()?, None)
-    };
-    let request = ContourRequest {
-        method,
-        unknown: match args.unknown {
-            UnknownArg::Drop => UnknownMode::Drop,
-            UnknownArg::Bounds => UnknownMode::Bounds,
-        },
-        anisotropy,
-        grid,
-        min_volume: args.min_volume,
-        relax: usize::from(args.relax),
-        ..ContourRequest::new(samples, args.thresholds.clone())
+    // Options are checked before any file is read: a bad flag costs nothing.
+    let options = args.options();
+    if let Err(e) = options.check() {
+        return Ok(super::bad_option(&e));
+    }
+    let request = match options.into_request(args.source()?) {
+        Ok(request) => request,
+        Err(e) => return Ok(super::bad_option(&e)),
     };
     let bar = Bar::new(args.quiet);
     let result = contour::run(&request, &bar);

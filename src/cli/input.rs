@@ -127,6 +127,14 @@ fn las_files(paths: &[PathBuf]) -> anyhow::Result<Vec<InputFile>> {
 }
 
 impl InputArgs {
+    /// The `--unit` given, by name.
+    pub fn unit_name(&self) -> Option<&'static str> {
+        self.unit.map(|u| match u {
+            UnitArg::M => "m",
+            UnitArg::Ft => "ft",
+        })
+    }
+
     /// Reads the named files into a [`wells::Input`] (no parsing yet).
     pub fn to_input(&self) -> anyhow::Result<wells::Input> {
         let mut input = wells::Input {
@@ -135,10 +143,7 @@ impl InputArgs {
             composite_length: self.composite,
             dip_down_negative: self.dip_down.map(|d| d == DipDown::Negative),
             crs: self.crs.clone(),
-            unit: self.unit.map(|u| match u {
-                UnitArg::M => "m".to_owned(),
-                UnitArg::Ft => "ft".to_owned(),
-            }),
+            unit: self.unit_name().map(str::to_owned),
             below_detection: match self.below_detection {
                 BelowArg::Half => BelowDetection::Half,
                 BelowArg::Zero => BelowDetection::Zero,

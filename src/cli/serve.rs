@@ -8,7 +8,8 @@ use std::time::Duration;
 use anyhow::Context;
 use tokio::sync::{Notify, watch};
 use wellmesh::api::{self, ApiConfig, AppState};
-use wellmesh::jobs::{self, ContourPipeline, JobMetrics, WorkerConfig, WorkerPool};
+use wellmesh::jobs::{self, JobMetrics, WorkerConfig, WorkerPool};
+use wellmesh::process::ContourPipeline;
 
 use super::worker::{WorkerArgs, init_tracing, shutdown_signal};
 

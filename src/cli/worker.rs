@@ -5,7 +5,8 @@ use std::time::Duration;
 
 use anyhow::Context;
 use tokio::sync::Notify;
-use wellmesh::jobs::{self, ContourPipeline, JobMetrics, WorkerConfig, WorkerPool};
+use wellmesh::jobs::{self, JobMetrics, WorkerConfig, WorkerPool};
+use wellmesh::process::ContourPipeline;
 
 use super::serve::redact;
 

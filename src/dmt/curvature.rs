@@ -23,11 +23,14 @@ use rayon::prelude::*;
 
 use super::DmtError;
 use super::extract::{PolygonKind, Topology, VertexRole};
-use crate::progress::Progress;
+use crate::progress::{CURVATURE_SHARE, Progress, Stage};
 use crate::tet::TetMesh;
 
 /// The finest lattice supported (its candidate indices fit in a `u8`).
 pub const MAX_LATTICE: u32 = 12;
+
+/// The coarsest lattice with a candidate strictly inside the tetrahedron off its centroid.
+pub const MIN_LATTICE: u32 = 4;
 
 /// Candidates lie within `1 / BAND_STEPS` of a lattice step of the distance field's zero.
 const BAND_STEPS: f64 = 8.0;
@@ -141,7 +144,7 @@ fn integrated(x: DVec3, ring: &[(DVec3, DVec3)]) -> f64 {
 
 /// Barycentric weights `(a, b, c, d) / lattice` with every weight positive.
 pub fn lattice_weights(lattice: u32) -> Vec<[f64; 4]> {
-    let n = lattice.clamp(4, MAX_LATTICE);
+    let n = lattice.clamp(MIN_LATTICE, MAX_LATTICE);
     let mut out = Vec::new();
     for a in 1..n {
         for b in 1..n - a {
@@ -192,7 +195,7 @@ pub fn optimize(
     let n = topo.active_tets;
     let rings = rings(topo);
     let classes = colour_classes(&rings, n);
-    let lattice = lattice.clamp(4, MAX_LATTICE);
+    let lattice = lattice.clamp(MIN_LATTICE, MAX_LATTICE);
     let weights = lattice_weights(lattice);
     let corners = |v: usize| -> [DVec3; 4] {
         let VertexRole::Tet { tet } = topo.roles[v] else {
@@ -329,7 +332,9 @@ pub fn optimize(
                 }
             }
         }
-        progress.report("curvature", (sweep + 1) as f64 / MAX_SWEEPS as f64);
+        let (start, end) = CURVATURE_SHARE;
+        let done = (sweep + 1) as f64 / MAX_SWEEPS as f64;
+        progress.report(Stage::Curvature, start + (end - start) * done);
         if moved <= tolerance {
             break;
         }

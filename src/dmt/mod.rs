@@ -18,7 +18,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::progress::Progress;
+use crate::progress::{CURVATURE_SHARE, Progress, Stage};
 use crate::tet::TetMesh;
 use extract::{PolygonKind, Topology, VertexRole};
 use place::SortedCorners;
@@ -230,14 +230,13 @@ pub fn extract_shell_relaxed(
         Some((lowered, count)) => (lowered.as_slice(), *count),
         None => (values, 0),
     };
-    let stage = format!("contour {threshold}");
-    progress.report(&stage, 0.0);
+    progress.report(Stage::Contour, 0.0);
     let marked: Vec<bool> = values.par_iter().map(|&v| v >= threshold).collect();
     let topo = extract::build(mesh, &marked);
     if progress.is_cancelled() {
         return Err(DmtError::Cancelled);
     }
-    progress.report(&stage, 0.3);
+    progress.report(Stage::Contour, CURVATURE_SHARE.0);
 
     let mut positions = vec![DVec3::ZERO; topo.roles.len()];
     // 0/1 placements work on the signed distance to the other class, whose zero level set
@@ -427,7 +426,7 @@ pub fn extract_shell_relaxed(
     if progress.is_cancelled() {
         return Err(DmtError::Cancelled);
     }
-    progress.report(&stage, 0.7);
+    progress.report(Stage::Contour, CURVATURE_SHARE.1);
 
     let edge_crossing = |a: u32, b: u32| {
         if alpha.is_empty() {
@@ -492,7 +491,7 @@ pub fn extract_shell_relaxed(
             .iter()
             .map(|b| (b.positions.as_slice(), b.triangles.as_slice())),
     );
-    progress.report(&stage, 1.0);
+    progress.report(Stage::Contour, 1.0);
     Ok(Shell {
         threshold,
         bodies,

@@ -14,7 +14,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::{Body, DmtError, Shell, ShellCounts};
-use crate::progress::Progress;
+use crate::progress::{Progress, Stage};
 use crate::tet::{NO_NEIGHBOUR, TetMesh};
 
 /// Corners of the face opposite corner `j` of a positively oriented tetrahedron, counter-
@@ -474,8 +474,7 @@ pub fn shell(
         Some((lowered, count)) => (lowered.as_slice(), *count),
         None => (values, 0),
     };
-    let stage = format!("marching tetrahedra {threshold}");
-    progress.report(&stage, 0.0);
+    progress.report(Stage::Contour, 0.0);
     if progress.is_cancelled() {
         return Err(DmtError::Cancelled);
     }
@@ -486,7 +485,7 @@ pub fn shell(
             .iter()
             .map(|b| (b.positions.as_slice(), b.triangles.as_slice())),
     );
-    progress.report(&stage, 1.0);
+    progress.report(Stage::Contour, 1.0);
     Ok(Shell {
         threshold,
         bodies: surface.bodies,

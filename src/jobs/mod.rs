@@ -1,5 +1,6 @@
-//! The durable job queue: a [`JobStore`] trait with SQLite and PostgreSQL backends, the
-//! execute inputs of the `dmt-contour` process, and the workers that run jobs.
+//! The durable job queue: a [`JobStore`] trait with SQLite and PostgreSQL backends, and the
+//! workers that run jobs through a [`Pipeline`]. The queue knows nothing of what a job's
+//! inputs mean: it stores bytes and hands them to the pipeline (`process` knows the rest).
 //!
 //! Invariant: a job's state only moves `accepted -> running -> successful | failed |
 //! dismissed` (or back to `accepted` when a lease expires or a worker shuts down), and
@@ -7,8 +8,6 @@
 //! row means the lease was lost, and the worker stops computing. Outputs are written in
 //! the same transaction that marks the job successful, so a job completes exactly once.
 
-mod inputs;
-mod pipeline;
 mod postgres;
 mod sqlite;
 mod worker;
@@ -17,14 +16,40 @@ use std::sync::Arc;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use async_trait::async_trait;
+
+use crate::progress::Progress;
 use serde::{Deserialize, Serialize};
 use uuid::Uuid;
 
-pub use inputs::{InputError, ProcessInputs, Thresholds};
-pub use pipeline::{ContourPipeline, JobFailure, Pipeline};
 pub use postgres::PostgresStore;
 pub use sqlite::SqliteStore;
 pub use worker::{JobMetrics, WorkerConfig, WorkerPool};
+
+/// Why a job produced no outputs.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum JobFailure {
+    /// The inputs could not be read or contoured; the message names the field or row.
+    #[error("{0}")]
+    Input(String),
+    /// The job was dismissed, its lease was lost, or its time ran out.
+    #[error("cancelled")]
+    Cancelled,
+    /// Something the user cannot fix.
+    #[error("internal error: {0}")]
+    Internal(String),
+}
+
+/// Turns a job's stored inputs into its outputs. The service runs the `dmt-contour`
+/// process ([`crate::process::ContourPipeline`]); tests of the queue plug in pipelines
+/// whose duration and outcome they control.
+///
+/// Invariant: [`Pipeline::run`] is called on a CPU (rayon) thread, never on an async
+/// runtime thread, and returns [`JobFailure::Cancelled`] soon after its `Progress` starts
+/// answering `is_cancelled() == true`.
+pub trait Pipeline: Send + Sync + 'static {
+    /// `inputs` are the bytes the job was submitted with.
+    fn run(&self, inputs: &[u8], progress: &dyn Progress) -> Result<Vec<StoredOutput>, JobFailure>;
+}
 
 /// Where a job is in its life (OGC API - Processes `statusCode`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]

@@ -16,8 +16,8 @@ use tokio::sync::{Notify, oneshot, watch};
 use tokio::task::JoinHandle;
 use tracing::{Instrument, error, info, info_span, warn};
 
-use super::{FailureKind, JobFailure, JobStore, Lease, Pipeline, ProcessInputs, now_ms};
-use crate::progress::Progress;
+use super::{FailureKind, JobFailure, JobStore, Lease, Pipeline, now_ms};
+use crate::progress::{Progress, Stage};
 
 /// How a pool of workers behaves.
 #[derive(Debug, Clone)]
@@ -231,20 +231,7 @@ impl Worker {
     async fn run_job(&mut self, lease: Lease, inputs: &[u8]) {
         let lease_ms = self.config.lease.as_millis() as i64;
         let started = Instant::now();
-        let inputs: ProcessInputs = match serde_json::from_slice(inputs) {
-            Ok(inputs) => inputs,
-            Err(e) => {
-                error!(error = %e, "stored inputs are unreadable");
-                self.finish_failed(
-                    lease,
-                    FailureKind::Internal,
-                    "stored inputs are unreadable",
-                    started,
-                )
-                .await;
-                return;
-            }
-        };
+        let inputs = inputs.to_vec();
         info!("job started");
         let tracker = Arc::new(JobProgress::new(started + self.config.time_limit));
         let (sender, mut receiver) = oneshot::channel();
@@ -436,37 +423,32 @@ impl JobProgress {
     }
 }
 
-/// Where each known stage sits in the job's 0..100 progress: (start, span).
-fn stage_span(stage: &str) -> Option<(f64, f64)> {
-    let stage = stage.to_ascii_lowercase();
-    let has = |words: &[&str]| words.iter().any(|w| stage.contains(w));
-    if has(&["read", "load", "wells", "desurvey", "composit"]) {
-        Some((0.0, 5.0))
-    } else if has(&["tet", "delaunay"]) {
-        Some((5.0, 50.0))
-    } else if has(&["contour", "dmt", "classif", "place", "cap", "marching"]) {
-        Some((55.0, 35.0))
-    } else if has(&["measure", "summary", "bod", "quality"]) {
-        Some((90.0, 5.0))
-    } else if has(&["export", "write", "glb", "tiles"]) {
-        Some((95.0, 4.0))
-    } else {
-        None
+/// Where each stage sits in the job's 0..100 progress: (start, span). Every stage has a
+/// place; the curvature search shares the contour stage's scale (`progress::Stage`).
+fn stage_span(stage: Stage) -> (f64, f64) {
+    match stage {
+        Stage::Read => (0.0, 5.0),
+        Stage::Fit => (5.0, 10.0),
+        Stage::Refine => (15.0, 15.0),
+        Stage::Tetrahedralize => (30.0, 25.0),
+        Stage::Contour | Stage::Curvature => (55.0, 30.0),
+        Stage::Bounds => (85.0, 5.0),
+        Stage::CrossValidate => (90.0, 5.0),
+        Stage::Export => (95.0, 4.0),
     }
 }
 
 impl Progress for JobProgress {
-    fn report(&self, stage: &str, fraction: f64) {
+    fn report(&self, stage: Stage, fraction: f64) {
         let fraction = if fraction.is_finite() {
             fraction.clamp(0.0, 1.0)
         } else {
             0.0
         };
         let mut state = self.state.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some((start, span)) = stage_span(stage) {
-            let percent = (start + span * fraction).floor().clamp(0.0, 99.0) as u8;
-            state.0 = state.0.max(percent);
-        }
+        let (start, span) = stage_span(stage);
+        let percent = (start + span * fraction).floor().clamp(0.0, 99.0) as u8;
+        state.0 = state.0.max(percent);
         state.1 = format!("{stage} {:.0}%", fraction * 100.0);
     }
 
@@ -482,12 +464,41 @@ mod tests {
     #[test]
     fn progress_only_moves_forward_and_names_the_stage() {
         let progress = JobProgress::new(Instant::now() + Duration::from_secs(60));
-        progress.report("tetrahedralize", 0.5);
-        assert_eq!(progress.snapshot(), (30, "tetrahedralize 50%".to_string()));
-        progress.report("read wells", 1.0);
-        assert_eq!(progress.snapshot().0, 30);
-        progress.report("export", 1.0);
+        progress.report(Stage::Tetrahedralize, 0.5);
+        assert_eq!(progress.snapshot(), (42, "tetrahedralize 50%".to_string()));
+        progress.report(Stage::Read, 1.0);
+        assert_eq!(progress.snapshot().0, 42);
+        progress.report(Stage::Export, 1.0);
         assert_eq!(progress.snapshot().0, 99);
+    }
+
+    #[test]
+    fn every_stage_moves_the_percent_and_stages_follow_the_pipeline_order() {
+        let mut last_start = 0.0;
+        for stage in Stage::ALL {
+            let progress = JobProgress::new(Instant::now() + Duration::from_secs(60));
+            progress.report(stage, 0.0);
+            let start = progress.snapshot().0;
+            progress.report(stage, 1.0);
+            let end = progress.snapshot().0;
+            assert!(
+                end > start,
+                "{stage} does not move the percent ({start} -> {end})"
+            );
+            let (span_start, _) = stage_span(stage);
+            assert!(
+                span_start >= last_start,
+                "{stage} starts before the stage before it"
+            );
+            last_start = span_start;
+        }
+        // A 0/1 shell's curvature search moves the percent between the extraction's steps.
+        let progress = JobProgress::new(Instant::now() + Duration::from_secs(60));
+        let (lo, hi) = crate::progress::CURVATURE_SHARE;
+        progress.report(Stage::Contour, lo);
+        let before = progress.snapshot().0;
+        progress.report(Stage::Curvature, hi);
+        assert!(progress.snapshot().0 > before);
     }
 
     #[test]

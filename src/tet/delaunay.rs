@@ -18,7 +18,7 @@ use super::exact_int::{self, Grid};
 use super::predicates::{self, Sign};
 use super::sort::{InsertionOrder, bounds, insertion_order, lex_ranks, normalized_bounds};
 use super::{Cell, FACE_OUTWARD, NO_NEIGHBOUR, TetError, TetMesh, load4};
-use crate::progress::Progress;
+use crate::progress::{Progress, Stage};
 
 /// The vertex at infinity of ghost tetrahedra (never in a finished [`TetMesh`]).
 const INF: u32 = VERTEX_MASK;
@@ -1286,7 +1286,7 @@ impl<'a> Builder<'a> {
             if progress.is_cancelled() {
                 return Err(TetError::Cancelled);
             }
-            progress.report("tetrahedralize", done as f64 / total as f64);
+            progress.report(Stage::Tetrahedralize, done as f64 / total as f64);
             Ok(())
         };
         for r in rounds.windows(2) {

@@ -87,7 +87,7 @@ pub struct ReadReport {
 ///
 /// `points[i]`, `values[i]` and `well_of[i]` describe sample `i`. Shapes: all three have
 /// the same length; `well_of[i]` indexes `wells`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct SampleSet {
     /// Local origin, in input units; add it to a local coordinate to get the input's.
     pub origin: DVec3,

@@ -7,29 +7,35 @@
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use crate::contour::{Anisotropy, ContourRequest, UnknownMode};
-use crate::dmt::Method;
+use crate::contour::{ContourOptions, ContourRequest, OptionError, Source};
 use crate::wells::{Input, InputFile, SampleSet};
 
 /// Inputs of `POST /processes/dmt-contour/execution` (the `inputs` object).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ProcessInputs {
-    /// Wells JSON: `{"crs"?, "wells": [{"id", "x", "y", "z"?, "samples": [{"depth" | "z", "value"}]}]}`.
+    /// Wells JSON: `{"crs"?, "wells": [{"id", "x", "y", "z"?, "samples": [{"depth" | "z",
+    /// "value": number | null}]}]}`; depth is measured down a vertical hole from the collar z.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(value_type = Option<Object>)]
     pub wells: Option<serde_json::Value>,
-    /// Samples CSV text, columns `well,x,y,z,value`.
+    /// Samples CSV text with a header row: `well,x,y,z,value` (aliases `hole_id`/`bhid`,
+    /// `easting`, `northing`, `elevation`/`rl`). Empty, `NA` or `?` values are "don't know".
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(content_media_type = "text/csv")]
     pub samples_csv: Option<String>,
     /// Drill-hole collar table as CSV text (`hole_id,x,y,z`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(content_media_type = "text/csv")]
     pub collars_csv: Option<String>,
-    /// Drill-hole survey table as CSV text (`hole_id,depth,azimuth,dip`).
+    /// Drill-hole survey table as CSV text (`hole_id,depth,azimuth,dip`), desurveyed by
+    /// minimum curvature; without it holes are vertical.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(content_media_type = "text/csv")]
     pub surveys_csv: Option<String>,
     /// Drill-hole interval table as CSV text (`hole_id,from,to,<variables...>`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(content_media_type = "text/csv")]
     pub intervals_csv: Option<String>,
     /// Interval column holding the value to contour.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -37,7 +43,8 @@ pub struct ProcessInputs {
     /// Categorical codes of `variable` that count as inside (value 1).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub inside: Vec<String>,
-    /// Composite length for interval tables, in input units.
+    /// Composite intervals to this length (input units), length-weighted; default: one
+    /// sample at each interval's midpoint.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub composite_length: Option<f64>,
     /// CRS to report when the input carries none (e.g. `EPSG:32633`).
@@ -46,19 +53,33 @@ pub struct ProcessInputs {
     /// Horizontal length unit, `m` or `ft`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unit: Option<String>,
-    /// One shell per threshold; a sample is inside when `value >= threshold`.
+    /// One shell per threshold; a sample is inside when `value >= threshold` (a number, or
+    /// an array of 1 to 64 numbers).
+    #[schema(inline)]
     pub thresholds: Thresholds,
     /// Vertex placement: `distance`, `curvature`, `ibc`, `coi`, `midpoint` or `mt`.
     /// Default: curvature for 0/1 data, IbC for grades.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub method: Option<String>,
+    /// Lattice resolution N of the curvature placement (candidates (aP+bQ+cR+dS)/N), 4 to
+    /// 12; default 7.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = 4, maximum = 12)]
+    pub lattice: Option<u32>,
     /// "Don't know" samples: `drop` (default) or `bounds`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unknown: Option<String>,
-    /// Per-axis scale `[sx, sy, sz]` applied before tetrahedralizing.
+    /// Per-axis scale `[sx, sy, sz]` applied before tetrahedralizing (in the frame turned
+    /// by `azimuth` and `dip`), inverted on output.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(min_items = 3, max_items = 3)]
     pub anisotropy: Option<[f64; 3]>,
+    /// Azimuth (degrees clockwise from north) of the anisotropy's first axis; default 90.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub azimuth: Option<f64>,
+    /// Dip (degrees) of the anisotropy's second axis, tilted down about the first; default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dip: Option<f64>,
     /// Bodies with a smaller volume (input units cubed) are left out.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub min_volume: Option<f64>,
@@ -103,6 +124,15 @@ impl Thresholds {
 pub struct InputError {
     pub field: String,
     pub reason: String,
+}
+
+impl From<OptionError> for InputError {
+    fn from(e: OptionError) -> Self {
+        InputError {
+            field: e.field.to_string(),
+            reason: e.reason,
+        }
+    }
 }
 
 impl InputError {
@@ -151,45 +181,10 @@ impl ProcessInputs {
                 ));
             }
         }
-        let thresholds = self.thresholds.values();
-        if thresholds.is_empty() {
+        if self.thresholds.values().is_empty() {
             return Err(InputError::new("thresholds", "give at least one threshold"));
         }
-        if thresholds.len() > 64 {
-            return Err(InputError::new("thresholds", "at most 64 thresholds"));
-        }
-        if let Some(bad) = thresholds.iter().find(|t| !t.is_finite()) {
-            return Err(InputError::new(
-                "thresholds",
-                format!("{bad} is not a finite number"),
-            ));
-        }
-        self.method()?;
-        self.unknown_mode()?;
-        if let Some(scale) = self.anisotropy
-            && scale.iter().any(|s| !s.is_finite() || *s <= 0.0)
-        {
-            return Err(InputError::new(
-                "anisotropy",
-                "each of [sx, sy, sz] must be a positive finite number",
-            ));
-        }
-        if let Some(v) = self.min_volume
-            && (!v.is_finite() || v < 0.0)
-        {
-            return Err(InputError::new(
-                "min_volume",
-                "must be a finite number >= 0",
-            ));
-        }
-        if let Some(r) = self.relax
-            && r as usize > crate::dmt::relax::MAX_SWEEPS
-        {
-            return Err(InputError::new(
-                "relax",
-                format!("at most {} sweeps", crate::dmt::relax::MAX_SWEEPS),
-            ));
-        }
+        self.options().check()?;
         if let Some(l) = self.composite_length
             && (!l.is_finite() || l <= 0.0)
         {
@@ -229,29 +224,18 @@ impl ProcessInputs {
             + self.intervals_csv.as_deref().map_or(0, csv_data_rows)
     }
 
-    pub fn method(&self) -> Result<Option<Method>, InputError> {
-        self.method
-            .as_deref()
-            .map(|m| {
-                m.parse::<Method>()
-                    .map_err(|e| InputError::new("method", e))
-            })
-            .transpose()
-    }
-
-    pub fn unknown_mode(&self) -> Result<UnknownMode, InputError> {
-        match self
-            .unknown
-            .as_deref()
-            .map(str::to_ascii_lowercase)
-            .as_deref()
-        {
-            None | Some("drop") => Ok(UnknownMode::Drop),
-            Some("bounds") => Ok(UnknownMode::Bounds),
-            Some(other) => Err(InputError::new(
-                "unknown",
-                format!("unknown mode {other:?}: expected drop or bounds"),
-            )),
+    /// The contouring options, as the CLI's flags of the same names give them.
+    pub fn options(&self) -> ContourOptions {
+        ContourOptions {
+            thresholds: self.thresholds.values(),
+            method: self.method.clone(),
+            lattice: self.lattice,
+            unknown: self.unknown.clone(),
+            anisotropy: self.anisotropy,
+            azimuth: self.azimuth,
+            dip: self.dip,
+            min_volume: self.min_volume,
+            relax: self.relax,
         }
     }
 
@@ -283,20 +267,7 @@ impl ProcessInputs {
 
     /// The contouring half of the request around already-read samples.
     pub fn contour_request(&self, samples: SampleSet) -> Result<ContourRequest, InputError> {
-        Ok(ContourRequest {
-            samples,
-            thresholds: self.thresholds.values(),
-            method: self.method()?,
-            unknown: self.unknown_mode()?,
-            anisotropy: self
-                .anisotropy
-                .map(|scale| Anisotropy::scale(glam::DVec3::from_array(scale))),
-            grid: None,
-            min_volume: self.min_volume,
-            relax: self
-                .relax
-                .map_or(crate::dmt::relax::DEFAULT_SWEEPS, |r| r as usize),
-        })
+        Ok(self.options().into_request(Source::Samples(samples))?)
     }
 }
 

@@ -1,53 +1,38 @@
-//! What a worker runs for one job: execute inputs in, stored outputs out.
+//! What a worker runs for one `dmt-contour` job: stored execute inputs in, outputs out.
 //!
-//! Invariant: [`Pipeline::run`] is called on a CPU (rayon) thread, never on an async
-//! runtime thread, and returns [`JobFailure::Cancelled`] soon after its `Progress`
-//! starts answering `is_cancelled() == true`.
+//! Invariant: the same [`ProcessInputs`] the API accepted are read back, so a job runs
+//! exactly what was submitted.
 
 use crate::contour::{self, ContourError};
 use crate::export::{self, OutputOptions};
-use crate::progress::Progress;
+use crate::progress::{Progress, Stage};
 use crate::wells::{Input, SampleSet};
 
-use super::{ProcessInputs, StoredOutput};
-
-/// Why a job produced no outputs.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum JobFailure {
-    /// The inputs could not be read or contoured; the message names the field or row.
-    #[error("{0}")]
-    Input(String),
-    /// The job was dismissed, its lease was lost, or its time ran out.
-    #[error("cancelled")]
-    Cancelled,
-    /// Something the user cannot fix.
-    #[error("internal error: {0}")]
-    Internal(String),
-}
-
-/// Turns execute inputs into outputs. The service uses [`ContourPipeline`]; tests of
-/// the queue plug in pipelines whose duration and outcome they control.
-pub trait Pipeline: Send + Sync + 'static {
-    fn run(
-        &self,
-        inputs: &ProcessInputs,
-        progress: &dyn Progress,
-    ) -> Result<Vec<StoredOutput>, JobFailure>;
-}
+use super::ProcessInputs;
+use crate::jobs::{JobFailure, Pipeline, StoredOutput};
 
 /// The real pipeline: read wells, `contour::run`, export every output.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct ContourPipeline;
 
 impl Pipeline for ContourPipeline {
-    fn run(
+    fn run(&self, inputs: &[u8], progress: &dyn Progress) -> Result<Vec<StoredOutput>, JobFailure> {
+        let inputs: ProcessInputs = serde_json::from_slice(inputs)
+            .map_err(|e| JobFailure::Internal(format!("the stored inputs are unreadable: {e}")))?;
+        self.run_inputs(&inputs, progress)
+    }
+}
+
+impl ContourPipeline {
+    /// Runs already-parsed inputs.
+    pub fn run_inputs(
         &self,
         inputs: &ProcessInputs,
         progress: &dyn Progress,
     ) -> Result<Vec<StoredOutput>, JobFailure> {
-        progress.report("read wells", 0.0);
+        progress.report(Stage::Read, 0.0);
         let samples = load_samples(&inputs.wells_input())?;
-        progress.report("read wells", 1.0);
+        progress.report(Stage::Read, 1.0);
         if progress.is_cancelled() {
             return Err(JobFailure::Cancelled);
         }
@@ -61,7 +46,7 @@ impl Pipeline for ContourPipeline {
         if progress.is_cancelled() {
             return Err(JobFailure::Cancelled);
         }
-        progress.report("export", 0.0);
+        progress.report(Stage::Export, 0.0);
         let defaults = OutputOptions::default();
         let options = OutputOptions {
             well_traces: inputs.well_traces.unwrap_or(defaults.well_traces),
@@ -70,7 +55,7 @@ impl Pipeline for ContourPipeline {
         };
         let outputs = export::all_outputs(&result, &options)
             .map_err(|e| JobFailure::Internal(format!("exporting the results: {e}")))?;
-        progress.report("export", 1.0);
+        progress.report(Stage::Export, 1.0);
         Ok(outputs
             .into_iter()
             .map(|output| StoredOutput {

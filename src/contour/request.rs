@@ -1,0 +1,386 @@
+//! What a contouring job asks for: the source of values ([`Source`]) and the options,
+//! checked once at the door.
+//!
+//! Invariant: a [`ContourRequest`] holds only validated values — [`Thresholds`] are finite
+//! and few, an [`Anisotropy`] is positive and finite, `min_volume` is finite and not
+//! negative — so the pipeline never checks them again. Both doors (the CLI's flags and the
+//! service's execute inputs) fill the same [`ContourOptions`] and go through
+//! [`ContourOptions::into_request`]; an error names the option at fault.
+
+use glam::{DMat3, DVec3};
+use serde::Serialize;
+
+use crate::dmt::{self, Method, Placement};
+use crate::wells::SampleSet;
+
+/// Most thresholds (shells) one request may ask for.
+pub const MAX_THRESHOLDS: usize = 64;
+
+/// Where the values to contour come from.
+#[derive(Debug, Clone)]
+pub enum Source {
+    /// Scattered samples (wells, drill holes, LAS logs): tetrahedralized by Delaunay.
+    Samples(SampleSet),
+    /// A structured grid: its cells are split into tetrahedra, no Delaunay.
+    Grid(GridSource),
+}
+
+impl Source {
+    /// `true` when every known value is 0 or 1 (binary "copper above trace" data).
+    pub fn is_binary(&self) -> bool {
+        match self {
+            Source::Samples(samples) => is_binary(&samples.values),
+            Source::Grid(grid) => grid.volume.values.iter().all(|&v| v == 0.0 || v == 1.0),
+        }
+    }
+}
+
+/// A grid input and the cube split that turns it into tetrahedra; `crs` and `unit` are
+/// what to report when the grid file carries none.
+#[derive(Debug, Clone)]
+pub struct GridSource {
+    pub volume: crate::grid::GridVolume,
+    pub split: crate::grid::CubeSplit,
+    pub crs: Option<String>,
+    pub unit: String,
+}
+
+/// `true` when every known value is 0 or 1 (binary "copper above trace" data).
+pub fn is_binary(values: &[Option<f64>]) -> bool {
+    let mut any = false;
+    for v in values.iter().flatten() {
+        any = true;
+        if *v != 0.0 && *v != 1.0 {
+            return false;
+        }
+    }
+    any
+}
+
+/// One shell per threshold; a value is inside when `value >= threshold`. Finite, at most
+/// [`MAX_THRESHOLDS`]; none asks for the default of 0/1 data (0.5).
+#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+pub struct Thresholds(Vec<f64>);
+
+impl Thresholds {
+    pub fn new(values: Vec<f64>) -> Result<Self, OptionError> {
+        if values.len() > MAX_THRESHOLDS {
+            return Err(OptionError::new(
+                "thresholds",
+                format!("at most {MAX_THRESHOLDS} thresholds"),
+            ));
+        }
+        if let Some(bad) = values.iter().find(|t| !t.is_finite()) {
+            return Err(OptionError::new(
+                "thresholds",
+                format!("{bad} is not a finite number"),
+            ));
+        }
+        Ok(Thresholds(values))
+    }
+
+    pub fn values(&self) -> &[f64] {
+        &self.0
+    }
+
+    /// The thresholds to contour: those given, or 0.5 for 0/1 data when none were.
+    pub fn or_default(&self, binary: bool) -> Option<Vec<f64>> {
+        match (self.0.is_empty(), binary) {
+            (false, _) => Some(self.0.clone()),
+            (true, true) => Some(vec![0.5]),
+            (true, false) => None,
+        }
+    }
+}
+
+/// What to do with "don't know" samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UnknownMode {
+    /// The paper's rule: drop them before tetrahedralizing.
+    #[default]
+    Drop,
+    /// Also build the pessimistic (unknown = no) and optimistic (unknown = yes) bodies.
+    Bounds,
+}
+
+impl std::str::FromStr for UnknownMode {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "drop" => Ok(UnknownMode::Drop),
+            "bounds" => Ok(UnknownMode::Bounds),
+            other => Err(format!("unknown mode {other:?}: expected drop or bounds")),
+        }
+    }
+}
+
+/// An anisotropic frame: ore bodies are long and flat, so distances along the direction of
+/// greatest continuity count less. Points are rotated into the frame whose first axis
+/// points along `azimuth_deg` (clockwise from north) and whose second axis is tilted down by
+/// `dip_deg` about the first, then scaled per axis; output is mapped back exactly.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Anisotropy {
+    scale: DVec3,
+    azimuth_deg: f64,
+    dip_deg: f64,
+}
+
+impl Anisotropy {
+    /// Scale factors must be positive and finite, angles finite.
+    pub fn new(scale: DVec3, azimuth_deg: f64, dip_deg: f64) -> Result<Self, OptionError> {
+        if !scale.is_finite() || scale.min_element() <= 0.0 {
+            return Err(OptionError::new(
+                "anisotropy",
+                "each of [sx, sy, sz] must be a positive finite number",
+            ));
+        }
+        if !azimuth_deg.is_finite() {
+            return Err(OptionError::new("azimuth", "must be a finite number"));
+        }
+        if !dip_deg.is_finite() {
+            return Err(OptionError::new("dip", "must be a finite number"));
+        }
+        Ok(Anisotropy {
+            scale,
+            azimuth_deg,
+            dip_deg,
+        })
+    }
+
+    /// A pure per-axis scale of x, y, z (azimuth 90, dip 0: no rotation).
+    pub fn scale(scale: DVec3) -> Result<Self, OptionError> {
+        Anisotropy::new(scale, 90.0, 0.0)
+    }
+
+    pub fn scale_factors(&self) -> DVec3 {
+        self.scale
+    }
+
+    pub fn azimuth_deg(&self) -> f64 {
+        self.azimuth_deg
+    }
+
+    pub fn dip_deg(&self) -> f64 {
+        self.dip_deg
+    }
+
+    /// The map from input (local) coordinates into the anisotropic frame.
+    pub fn matrix(&self) -> DMat3 {
+        let (a, d) = (self.azimuth_deg.to_radians(), self.dip_deg.to_radians());
+        let x = DVec3::new(a.sin(), a.cos(), 0.0);
+        let y0 = DVec3::new(-a.cos(), a.sin(), 0.0);
+        let y = y0 * d.cos() - DVec3::Z * d.sin();
+        let z = x.cross(y);
+        DMat3::from_diagonal(self.scale) * DMat3::from_cols(x, y, z).transpose()
+    }
+}
+
+/// A contouring job, validated.
+#[derive(Debug, Clone)]
+pub struct ContourRequest {
+    pub source: Source,
+    pub thresholds: Thresholds,
+    /// `None` picks the default by data type ([`default_method`]).
+    pub method: Option<Method>,
+    /// Lattice resolution of the curvature placement, when the method (given or default)
+    /// is curvature; `None` keeps the method's own.
+    pub lattice: Option<u32>,
+    pub unknown: UnknownMode,
+    /// Scale (and rotation) applied before tetrahedralizing and inverted on output.
+    pub anisotropy: Option<Anisotropy>,
+    /// Bodies with a smaller volume are left out of the output (and counted in the
+    /// shell's `filtered_bodies`); `None` keeps every body, folded ones included.
+    pub min_volume: Option<f64>,
+    /// Sweeps of the shape relaxation of IbC and CoI vertices (`dmt::relax`); 0 keeps the
+    /// paper's positions. Other methods ignore it.
+    pub relax: usize,
+}
+
+impl ContourRequest {
+    /// A request with the defaults: method by data type, unknowns dropped, no anisotropy,
+    /// every body kept.
+    pub fn new(source: Source, thresholds: Thresholds) -> Self {
+        ContourRequest {
+            source,
+            thresholds,
+            method: None,
+            lattice: None,
+            unknown: UnknownMode::Drop,
+            anisotropy: None,
+            min_volume: None,
+            relax: dmt::relax::DEFAULT_SWEEPS,
+        }
+    }
+
+    /// The default request on samples.
+    pub fn samples(samples: SampleSet, thresholds: Thresholds) -> Self {
+        ContourRequest::new(Source::Samples(samples), thresholds)
+    }
+}
+
+/// The method used when the request names none: the curvature placement (searched near the
+/// distance surface) for 0/1 data, IbC for grades. See docs/dmt.md for the measurements.
+pub fn default_method(binary: bool) -> Method {
+    if binary {
+        Method::Dmt(Placement::Curvature {
+            lattice: dmt::DEFAULT_CURVATURE_LATTICE,
+        })
+    } else {
+        Method::Dmt(Placement::Ibc)
+    }
+}
+
+impl ContourRequest {
+    /// The method this request runs on data of the given kind, with its lattice.
+    pub fn resolved_method(&self, binary: bool) -> Method {
+        match (
+            self.method.unwrap_or_else(|| default_method(binary)),
+            self.lattice,
+        ) {
+            (Method::Dmt(Placement::Curvature { .. }), Some(lattice)) => {
+                Method::Dmt(Placement::Curvature { lattice })
+            }
+            (method, _) => method,
+        }
+    }
+}
+
+/// An option the request refuses: which one (by its name in the execute inputs; the CLI's
+/// flag is `--` and the same name) and why.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{field}: {reason}")]
+pub struct OptionError {
+    pub field: &'static str,
+    pub reason: String,
+}
+
+impl OptionError {
+    pub fn new(field: &'static str, reason: impl Into<String>) -> Self {
+        OptionError {
+            field,
+            reason: reason.into(),
+        }
+    }
+}
+
+/// The contouring options as a client gives them, before any check: the one request
+/// shape both doors fill (the CLI from its flags, the service from its execute inputs),
+/// each field named as the execute input of the same name.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ContourOptions {
+    pub thresholds: Vec<f64>,
+    /// `distance`, `curvature`, `ibc`, `coi`, `midpoint` or `mt`.
+    pub method: Option<String>,
+    /// Lattice resolution of the curvature placement.
+    pub lattice: Option<u32>,
+    /// `drop` or `bounds`.
+    pub unknown: Option<String>,
+    /// Scale factors `[sx, sy, sz]` of the anisotropic frame.
+    pub anisotropy: Option<[f64; 3]>,
+    /// Azimuth of the frame's first axis (degrees clockwise from north; default 90).
+    pub azimuth: Option<f64>,
+    /// Dip of the frame's second axis (degrees, default 0).
+    pub dip: Option<f64>,
+    pub min_volume: Option<f64>,
+    pub relax: Option<u32>,
+}
+
+impl ContourOptions {
+    /// The validated method and curvature lattice.
+    fn method(&self) -> Result<(Option<Method>, Option<u32>), OptionError> {
+        let method = match &self.method {
+            Some(name) => Some(
+                name.parse::<Method>()
+                    .map_err(|e| OptionError::new("method", e))?,
+            ),
+            None => None,
+        };
+        let Some(lattice) = self.lattice else {
+            return Ok((method, None));
+        };
+        let lowest = dmt::curvature::MIN_LATTICE;
+        let highest = dmt::curvature::MAX_LATTICE;
+        if !(lowest..=highest).contains(&lattice) {
+            return Err(OptionError::new(
+                "lattice",
+                format!("must be from {lowest} to {highest}"),
+            ));
+        }
+        match method {
+            None | Some(Method::Dmt(Placement::Curvature { .. })) => Ok((method, Some(lattice))),
+            Some(other) => Err(OptionError::new(
+                "lattice",
+                format!("applies to the curvature method only, not {}", other.name()),
+            )),
+        }
+    }
+
+    /// Checks every option without a source (as [`ContourOptions::into_request`] does).
+    pub fn check(&self) -> Result<(), OptionError> {
+        self.clone()
+            .into_request(Source::Samples(SampleSet::default()))
+            .map(|_| ())
+    }
+
+    /// Checks every option and builds the request on `source`.
+    pub fn into_request(self, source: Source) -> Result<ContourRequest, OptionError> {
+        let (method, lattice) = self.method()?;
+        let thresholds = Thresholds::new(self.thresholds)?;
+        let unknown = match self.unknown.as_deref() {
+            None => UnknownMode::Drop,
+            Some(text) => text
+                .parse::<UnknownMode>()
+                .map_err(|e| OptionError::new("unknown", e))?,
+        };
+        let anisotropy = match (self.anisotropy, self.azimuth, self.dip) {
+            (Some(scale), azimuth, dip) => Some(Anisotropy::new(
+                DVec3::from_array(scale),
+                azimuth.unwrap_or(90.0),
+                dip.unwrap_or(0.0),
+            )?),
+            (None, Some(_), _) => {
+                return Err(OptionError::new(
+                    "azimuth",
+                    "turns the anisotropic frame: give anisotropy too",
+                ));
+            }
+            (None, None, Some(_)) => {
+                return Err(OptionError::new(
+                    "dip",
+                    "tilts the anisotropic frame: give anisotropy too",
+                ));
+            }
+            (None, None, None) => None,
+        };
+        if let Some(v) = self.min_volume
+            && (!v.is_finite() || v < 0.0)
+        {
+            return Err(OptionError::new(
+                "min_volume",
+                "must be a finite number >= 0",
+            ));
+        }
+        let relax = match self.relax {
+            Some(r) if r as usize > dmt::relax::MAX_SWEEPS => {
+                return Err(OptionError::new(
+                    "relax",
+                    format!("at most {} sweeps", dmt::relax::MAX_SWEEPS),
+                ));
+            }
+            Some(r) => r as usize,
+            None => dmt::relax::DEFAULT_SWEEPS,
+        };
+        Ok(ContourRequest {
+            source,
+            thresholds,
+            method,
+            lattice,
+            unknown,
+            anisotropy,
+            min_volume: self.min_volume,
+            relax,
+        })
+    }
+}
