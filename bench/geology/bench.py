@@ -8,6 +8,7 @@ Usage:
       [--wellmesh target/release/wellmesh] [--wellmesh-args "--interpolant linear"]
       [--label wellmesh-linear] [--peer-args "ferreus_trend=--range-trend 200,120,10"]
       [--merge]
+  python bench/geology/bench.py --layouts LAYOUTS_DIR --out ALL --combine DIR1 DIR2 ...
 
 Each run is its own child process; wall time, CPU time (user + system) and peak resident
 memory are those of that process (GNU time), so the figures cover reading the tables,
@@ -163,7 +164,7 @@ def markdown(records: list[dict]) -> str:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--layouts", type=Path, required=True)
+    ap.add_argument("--layouts", type=Path)
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--names", default="lens,two_lens,lens_flag,two_lens_flag")
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5])
@@ -176,8 +177,24 @@ def main(argv=None) -> int:
                     help='TOOL="flags" for peers.py, e.g. scipy="--grid 4"')
     ap.add_argument("--mc-points", type=int, default=400_000)
     ap.add_argument("--merge", action="store_true")
+    ap.add_argument("--combine", type=Path, nargs="+", metavar="RESULTS_DIR",
+                    help="only merge these directories' results.json into --out (later ones "
+                         "win for the same layout, seed and tool) and write its table")
     args = ap.parse_args(argv)
+    if args.combine:
+        merged: dict = {}
+        for d in args.combine:
+            for r in json.loads((d / "results.json").read_text()):
+                merged[(r["layout"], r["seed"], r["tool"])] = r
+        args.out.mkdir(parents=True, exist_ok=True)
+        records = list(merged.values())
+        (args.out / "results.json").write_text(json.dumps(records, indent=1, default=float))
+        (args.out / "results.md").write_text(markdown(records))
+        print(markdown(records))
+        return 0
 
+    if args.layouts is None:
+        ap.error("--layouts is required (except with --combine)")
     tools = [t for t in args.tools.split(",") if t]
     for t in tools:
         if t != "wellmesh" and t not in PEERS:

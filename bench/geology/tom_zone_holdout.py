@@ -152,15 +152,17 @@ def ferreus_fold(k: int, held: set[str], all_samples: Samples, configs: list[dic
     return out
 
 
-def ferreus_configs(ranges: list[float], sweep: bool) -> list[dict]:
+def ferreus_configs(ranges: list[float], sweep: bool, plane: float = 100.0,
+                    across: float = 25.0) -> list[dict]:
     cfgs = [dict(name=f"ferreus iso {r:g} m", base_range=r) for r in ranges]
     if sweep:
         trends = [(0.0, 0.0)] + [(dip, dd) for dip in (15.0, 35.0, 55.0, 75.0)
                                  for dd in (0.0, 60.0, 120.0, 180.0, 240.0, 300.0)]
-        base = (100.0 * 100.0 * 25.0) ** (1.0 / 3.0)
+        base = (plane * plane * across) ** (1.0 / 3.0)
+        tag = "" if (plane, across) == (100.0, 25.0) else f" ranges {plane:g}/{across:g}"
         for dip, dd in trends:
-            cfgs.append(dict(name=f"ferreus trend dip {dip:g} dipdir {dd:g}", base_range=base,
-                             trend=(dip, dd, 0.0, 100.0 / base, 100.0 / base, 25.0 / base)))
+            cfgs.append(dict(name=f"ferreus trend dip {dip:g} dipdir {dd:g}{tag}", base_range=base,
+                             trend=(dip, dd, 0.0, plane / base, plane / base, across / base)))
     return cfgs
 
 
@@ -175,17 +177,29 @@ def report(records: list[dict], folds: list[int]) -> tuple[str, dict]:
                                                                 "balanced")}
         summary[tool] = dict(fold0=f0[0] if f0 else None, mean=mean, folds=len(rs))
         rows.append((tool, f0[0] if f0 else None, mean, len(rs)))
-    trend_rows = [r for r in rows if r[0].startswith("ferreus trend")]
+    prefix = "ferreus trend "
+    trend_rows = [r for r in rows if r[0].startswith(prefix)]
     lines = ["| model | fold 0 ore in | fold 0 waste out | fold 0 balanced | mean ore in | "
              "mean waste out | mean balanced | folds |", "|" + "---|" * 8]
-    shown = [r for r in rows if not r[0].startswith("ferreus trend")]
+    shown = [r for r in rows if not r[0].startswith(prefix)]
     if trend_rows:
         best0 = max(trend_rows, key=lambda r: r[1]["balanced"] if r[1] else -1)
         bestm = max(trend_rows, key=lambda r: r[2]["balanced"])
-        shown += [(f"best trend on fold 0: {best0[0][15:]}",) + best0[1:],
-                  (f"best trend on the mean: {bestm[0][15:]}",) + bestm[1:]]
+        shown += [(f"best trend on fold 0 ({best0[0][len(prefix):]})",) + best0[1:],
+                  (f"best trend on the mean ({bestm[0][len(prefix):]})",) + bestm[1:]]
         summary["best_trend_fold0"] = best0[0]
         summary["best_trend_mean"] = bestm[0]
+        # The best trend of each fold, chosen on that fold's held-out holes.
+        trend_recs = [r for r in records if r["tool"].startswith(prefix)]
+        per_fold = []
+        for k in sorted({r["fold"] for r in trend_recs}):
+            per_fold.append(max((r for r in trend_recs if r["fold"] == k),
+                                key=lambda r: r["balanced"]))
+        mean = {k: float(np.mean([r[k] for r in per_fold]))
+                for k in ("ore_inside", "waste_outside", "balanced")}
+        f0 = next((r for r in per_fold if r["fold"] == 0), None)
+        shown.append(("best trend of each fold", f0, mean, len(per_fold)))
+        summary["best_trend_each_fold"] = dict(mean=mean, trends=[r["tool"] for r in per_fold])
     for tool, f0, mean, n in shown:
         a = (f"{f0['ore_inside']:.3f} | {f0['waste_outside']:.3f} | {f0['balanced']:.3f}"
              if f0 else "- | - | -")
@@ -203,6 +217,8 @@ def main(argv=None) -> int:
     ap.add_argument("--label")
     ap.add_argument("--ferreus-ranges", default="50,100,200")
     ap.add_argument("--no-sweep", action="store_true")
+    ap.add_argument("--trend-ranges", default="100,25",
+                    help="the sweep's ranges in the trend's plane and across it (m)")
     ap.add_argument("--folds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
     ap.add_argument("--merge", action="store_true",
                     help="keep records of other tools from DIR/holdout.json")
@@ -218,8 +234,9 @@ def main(argv=None) -> int:
     path = args.out / "holdout.json"
     records = json.loads(path.read_text())["records"] if args.merge and path.exists() else []
     new = []
+    plane, across = (float(t) for t in args.trend_ranges.split(","))
     configs = ferreus_configs([float(r) for r in args.ferreus_ranges.split(",") if r],
-                              not args.no_sweep)
+                              not args.no_sweep, plane, across)
     for k in args.folds:
         held = fold_holes(holes, k)
         if "wellmesh" in tools:

@@ -327,3 +327,24 @@ def test_peak_memory_is_the_child_s_not_the_parent_s(tmp_path):
     assert small["exit"] == 0 and not small["peak_is_upper_bound"]
     assert small["peak_mb"] < 100
     assert 280 < big["peak_mb"] < 450
+
+
+@pytest.mark.skipif(not (REPO / "target" / "release" / "wellmesh").exists(),
+                    reason="needs target/release/wellmesh")
+def test_tom_zone_samples_sit_where_wellmesh_puts_them(tmp_path):
+    """Real tables (up-holes, gaps, unsurveyed holes): every sample point of wellmesh's GLB
+    is one of ours, within the GLB's f32 rounding."""
+    import tom_zone_holdout as tz
+    from score import check_desurvey
+
+    p = tz.tables()
+    glb = tmp_path / "tom.glb"
+    subprocess.run([str(REPO / "target" / "release" / "wellmesh"), "contour", "--collars",
+                    str(p["collars"]), "--surveys", str(p["surveys"]), "--intervals",
+                    str(p["intervals"]), "--variable", "Zn_pct", "--threshold", "5", "-o",
+                    str(glb)], check=True, capture_output=True)
+    s = read_tables(p["collars"], p["surveys"], p["intervals"], "Zn_pct")
+    c = check_desurvey(s.positions, read_glb(glb).samples)
+    assert c["glb_points"] == c["our_points"] == 6686
+    assert c["max_glb_to_ours_m"] < 1e-3 and c["max_ours_to_glb_m"] < 1e-3
+    assert len(tz.holes_with_assays()) == 206
