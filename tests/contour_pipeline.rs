@@ -1,6 +1,8 @@
 //! The whole pipeline on analytic bodies sampled by vertical wells at UTM coordinates:
 //! what a geologist relies on (one closed body, honest volume and area).
 
+mod common;
+
 use glam::DVec3;
 use wellmesh::contour::{
     self, Anisotropy, ContourOptions, ContourRequest, Thresholds, UnknownMode,
@@ -680,12 +682,9 @@ fn method_comparison() {
 fn real_drill_holes_give_closed_bodies_of_positive_volume_near_marching_tetrahedra() {
     // Copper Creek (BC): 488 surveyed holes, 1-3 m assays, holes tens to hundreds of metres
     // apart: the long, flat tetrahedra where DMT surfaces can fold.
-    let d = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/drilldown_copper_creek");
-    if !d.is_dir() {
-        eprintln!("skipped: {} is absent", d.display());
+    let Some(d) = common::shared_data("drilldown_copper_creek") else {
         return;
-    }
+    };
     let file = |name: &str| {
         wellmesh::wells::InputFile::new(name, std::fs::read(d.join(name)).expect("read"))
     };

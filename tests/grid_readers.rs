@@ -1,7 +1,10 @@
 //! Grid readers on the real data in `../shared/data` and on arbitrary bytes: the real files
-//! read as their sources describe them; malformed input is an error, never a panic.
+//! read as their sources describe them; malformed input is an error, never a panic. The
+//! real-data tests skip with a note when the shared corpus is absent (`common`).
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 
 use glam::DVec3;
 use proptest::prelude::*;
@@ -11,19 +14,18 @@ use wellmesh::grid::{
     read_raw, tetrahedralize_with_report,
 };
 
-fn data(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(path)
-}
+use common::shared_data;
 
-fn bytes(path: &str) -> Vec<u8> {
-    std::fs::read(data(path)).unwrap_or_else(|e| panic!("{}: {e}", data(path).display()))
+fn bytes(path: &Path) -> Vec<u8> {
+    std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 #[test]
 fn headsq_reads_as_its_sources_describe() {
-    let grid = read_nrrd(&data("vtk_headsq/quarter.nhdr")).unwrap();
+    let Some(head) = shared_data("vtk_headsq") else {
+        return;
+    };
+    let grid = read_nrrd(&head.join("quarter.nhdr")).unwrap();
     assert_eq!(grid.dims, [64, 64, 93]);
     assert_eq!(grid.value_range(), Some((0.0, 3926.0)));
     let extent = grid.points[grid.len() - 1] - grid.points[0];
@@ -33,7 +35,7 @@ fn headsq_reads_as_its_sources_describe() {
         "centred on its bbox"
     );
     // Slice k holds file quarter.(k+1): its first sample is the file's first int16.
-    let slice7 = bytes("vtk_headsq/quarter.8");
+    let slice7 = bytes(&head.join("quarter.8"));
     let first = i16::from_le_bytes([slice7[0], slice7[1]]) as f64;
     assert_eq!(grid.values[grid.index(0, 0, 7)], first);
     let last = i16::from_le_bytes([slice7[8190], slice7[8191]]) as f64;
@@ -42,7 +44,10 @@ fn headsq_reads_as_its_sources_describe() {
 
 #[test]
 fn headsq_skin_is_closed_on_both_splits() {
-    let grid = read_nrrd(&data("vtk_headsq/quarter.nhdr")).unwrap();
+    let Some(head) = shared_data("vtk_headsq") else {
+        return;
+    };
+    let grid = read_nrrd(&head.join("quarter.nhdr")).unwrap();
     for split in [CubeSplit::Five, CubeSplit::Six] {
         let (mesh, report) = tetrahedralize_with_report(&grid, split).unwrap();
         assert_eq!(report.tets, 63 * 63 * 92 * split.tets_per_cell());
@@ -62,8 +67,11 @@ fn headsq_skin_is_closed_on_both_splits() {
 
 #[test]
 fn blunt_fin_reads_with_its_padding_and_big_endian_layout() {
-    let xyz = bytes("vtk_plot3d_bluntfin_combustor/bluntfinxyz.bin");
-    let q = bytes("vtk_plot3d_bluntfin_combustor/bluntfinq.bin");
+    let Some(fin) = shared_data("vtk_plot3d_bluntfin_combustor") else {
+        return;
+    };
+    let xyz = bytes(&fin.join("bluntfinxyz.bin"));
+    let q = bytes(&fin.join("bluntfinq.bin"));
     let grid = read_plot3d(
         "bluntfinxyz.bin",
         &xyz,
@@ -119,8 +127,11 @@ fn blunt_fin_reads_with_its_padding_and_big_endian_layout() {
 
 #[test]
 fn combustor_pressure_is_refused_because_its_energy_is_all_zero() {
-    let xyz = bytes("vtk_plot3d_bluntfin_combustor/combxyz.bin");
-    let q = bytes("vtk_plot3d_bluntfin_combustor/combq.bin");
+    let Some(fin) = shared_data("vtk_plot3d_bluntfin_combustor") else {
+        return;
+    };
+    let xyz = bytes(&fin.join("combxyz.bin"));
+    let q = bytes(&fin.join("combq.bin"));
     let grid = read_plot3d(
         "combxyz.bin",
         &xyz,
@@ -146,7 +157,7 @@ fn combustor_pressure_is_refused_because_its_energy_is_all_zero() {
         "combxyz.bin",
         &xyz,
         "bluntfinq.bin",
-        &bytes("vtk_plot3d_bluntfin_combustor/bluntfinq.bin"),
+        &bytes(&fin.join("bluntfinq.bin")),
         Plot3dVariable::Density,
         0,
     )
@@ -160,8 +171,14 @@ fn combustor_pressure_is_refused_because_its_energy_is_all_zero() {
 
 #[test]
 fn truncated_real_files_are_errors_naming_them() {
-    let xyz = bytes("vtk_plot3d_bluntfin_combustor/bluntfinxyz.bin");
-    let q = bytes("vtk_plot3d_bluntfin_combustor/bluntfinq.bin");
+    let Some(fin) = shared_data("vtk_plot3d_bluntfin_combustor") else {
+        return;
+    };
+    let Some(head) = shared_data("vtk_headsq") else {
+        return;
+    };
+    let xyz = bytes(&fin.join("bluntfinxyz.bin"));
+    let q = bytes(&fin.join("bluntfinq.bin"));
     let err = read_plot3d(
         "fin.xyz",
         &xyz[..xyz.len() / 2],
@@ -177,9 +194,9 @@ fn truncated_real_files_are_errors_naming_them() {
         "{err}"
     );
 
-    let header = bytes("vtk_headsq/quarter.nhdr");
+    let header = bytes(&head.join("quarter.nhdr"));
     let mut open = |name: &str| -> Result<Vec<u8>, GridError> {
-        let mut content = bytes(&format!("vtk_headsq/{name}"));
+        let mut content = bytes(&head.join(name));
         if name == "quarter.50" {
             content.truncate(100);
         }

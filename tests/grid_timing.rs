@@ -1,8 +1,9 @@
 //! Timings of the grid path (read, split, marching tetrahedra), printed, never asserted.
 //! Run: `cargo test --test grid_timing -- --ignored --nocapture` (the test profile is
-//! optimised, opt-level 2).
+//! optimised, opt-level 2). The real grids come from the shared corpus (`common`).
 
-use std::path::Path;
+mod common;
+
 use std::time::Instant;
 
 use glam::DVec3;
@@ -10,12 +11,6 @@ use wellmesh::dmt::mt::marching_tetrahedra;
 use wellmesh::grid::{
     CubeSplit, GridVolume, Plot3dVariable, read_nrrd, read_plot3d, tetrahedralize_with_report,
 };
-
-fn data(path: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(path)
-}
 
 fn split_and_contour(name: &str, grid: &GridVolume, threshold: f64) {
     for split in [CubeSplit::Five, CubeSplit::Six] {
@@ -62,8 +57,14 @@ fn split_and_contour(name: &str, grid: &GridVolume, threshold: f64) {
 #[test]
 #[ignore = "timing run, prints figures"]
 fn timings() {
+    let (Some(head), Some(fin)) = (
+        common::shared_data("vtk_headsq/quarter.nhdr"),
+        common::shared_data("vtk_plot3d_bluntfin_combustor"),
+    ) else {
+        return;
+    };
     let t = Instant::now();
-    let head = read_nrrd(&data("vtk_headsq/quarter.nhdr")).unwrap();
+    let head = read_nrrd(&head).unwrap();
     println!(
         "headsq read {:?} in {:.3} s",
         head.dims,
@@ -71,8 +72,8 @@ fn timings() {
     );
     split_and_contour("headsq", &head, 500.0);
 
-    let xyz = std::fs::read(data("vtk_plot3d_bluntfin_combustor/bluntfinxyz.bin")).unwrap();
-    let q = std::fs::read(data("vtk_plot3d_bluntfin_combustor/bluntfinq.bin")).unwrap();
+    let xyz = std::fs::read(fin.join("bluntfinxyz.bin")).unwrap();
+    let q = std::fs::read(fin.join("bluntfinq.bin")).unwrap();
     let t = Instant::now();
     let fin = read_plot3d("fin.xyz", &xyz, "fin.q", &q, Plot3dVariable::Density, 0).unwrap();
     println!(

@@ -1,6 +1,8 @@
 //! `wellmesh inspect` end to end: text and JSON reports, and errors with exit code 1 that
 //! name the file and line.
 
+mod common;
+
 use std::process::Command;
 
 fn wellmesh(args: &[&str]) -> std::process::Output {
@@ -97,20 +99,17 @@ fn a_bad_dip_convention_value_is_a_usage_error() {
 
 #[test]
 fn inspect_reads_a_las_directory_with_a_locations_table() {
-    let dir = "../shared/data/mcmurray_athabasca_las_subset";
-    if !std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join(dir)
-        .is_dir()
-    {
-        eprintln!("skipped: {dir} is absent");
+    let Some(dir) = common::shared_data("mcmurray_athabasca_las_subset") else {
         return;
-    }
+    };
     let out = wellmesh(&[
         "inspect",
         "--las",
-        &format!("{dir}/logs"),
+        dir.join("logs").to_str().unwrap(),
         "--locations",
-        &format!("{dir}/DERIVED_wells_utm12_kb_tops.csv"),
+        dir.join("DERIVED_wells_utm12_kb_tops.csv")
+            .to_str()
+            .unwrap(),
         "--variable",
         "GR",
         "--json",

@@ -1,20 +1,15 @@
 //! The 13 deliberately broken LAS files of `../shared/data/las_kansas_alberta_broken`: each
 //! reads cleanly (with the defect repaired and noted) or fails with an error naming the file
-//! and line; none panics. Skipped with a note when the shared data folder is absent.
+//! and line; none panics. Skipped with a note when the shared corpus is absent (`common`).
 
-use std::path::PathBuf;
+mod common;
 
 use wellmesh::wells::{Input, InputFile, las};
 
 fn data(name: &str) -> Option<(String, Vec<u8>)> {
-    let path = PathBuf::from("../shared/data/las_kansas_alberta_broken").join(name);
-    match std::fs::read(&path) {
-        Ok(bytes) => Some((name.to_owned(), bytes)),
-        Err(_) => {
-            eprintln!("skipped: {} is absent", path.display());
-            None
-        }
-    }
+    let path = common::shared_data(&format!("las_kansas_alberta_broken/{name}"))?;
+    let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    Some((name.to_owned(), bytes))
 }
 
 /// Reads the file, checks the depth rows against the header's STRT/STOP/STEP, and loads it

@@ -1,21 +1,21 @@
-//! Every real data set in `../shared/data` loads with a clear account of what was dropped
-//! and why. Each test is skipped with a printed note when the folder is absent (a plain
-//! clone); the figures asserted are the data sets' documented oddities.
+//! Every real data set loads with a clear account of what was dropped and why; the figures
+//! asserted are the data sets' documented oddities. Tom Zone, Forrestania (its gold column)
+//! and the deepest 20 m of the NLOG L07 logs ship in `sample_wells/` and are read on every
+//! clone; the others are in the shared corpus `../shared/data`, and their tests skip with a
+//! printed note when it is absent (`common`).
+
+mod common;
 
 use std::path::{Path, PathBuf};
 
+use common::shared_data;
 use wellmesh::wells::{Input, InputFile, SampleSet};
 
-fn dir(name: &str) -> Option<PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(name);
-    if path.is_dir() {
-        Some(path)
-    } else {
-        eprintln!("skipped: {} is absent", path.display());
-        None
-    }
+/// A folder of `sample_wells/`, shipped with the repository.
+fn sample(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("sample_wells")
+        .join(name)
 }
 
 fn file(dir: &Path, name: &str) -> InputFile {
@@ -59,9 +59,7 @@ fn warned(set: &SampleSet, needle: &str) -> bool {
 
 #[test]
 fn tom_zone_assays_and_facies_codes_load() {
-    let Some(d) = dir("drilldown_tom_zone") else {
-        return;
-    };
+    let d = sample("tom_zone");
     let set = drillholes(&d, "collar.csv", Some("survey.csv"), "assay.csv", "Zn_pct")
         .load()
         .unwrap();
@@ -80,7 +78,7 @@ fn tom_zone_assays_and_facies_codes_load() {
 
 #[test]
 fn copper_creek_loads_with_bom_below_detection_duplicates_and_overlaps_reported() {
-    let Some(d) = dir("drilldown_copper_creek") else {
+    let Some(d) = shared_data("drilldown_copper_creek") else {
         return;
     };
     let set = drillholes(&d, "collar.csv", Some("survey.csv"), "assay.csv", "Cu_pct")
@@ -109,7 +107,7 @@ fn copper_creek_loads_with_bom_below_detection_duplicates_and_overlaps_reported(
 
 #[test]
 fn babbitt_loads_in_feet_positive_down_with_end_markers_handled() {
-    let Some(d) = dir("babbitt_pygslib") else {
+    let Some(d) = shared_data("babbitt_pygslib") else {
         return;
     };
     let mut input = drillholes(
@@ -133,9 +131,7 @@ fn babbitt_loads_in_feet_positive_down_with_end_markers_handled() {
 
 #[test]
 fn forrestania_loads_with_unsurveyed_holes_and_negative_below_detection() {
-    let Some(d) = dir("drilldown_forrestania") else {
-        return;
-    };
+    let d = sample("forrestania");
     let set = drillholes(&d, "collar.csv", Some("survey.csv"), "assay.csv", "Au_ppm")
         .load()
         .unwrap();
@@ -147,7 +143,7 @@ fn forrestania_loads_with_unsurveyed_holes_and_negative_below_detection() {
 
 #[test]
 fn thalanga_massive_sulphide_loads_with_mixed_dip_signs_warned() {
-    let Some(d) = dir("thalanga_loopresources") else {
+    let Some(d) = shared_data("thalanga_loopresources") else {
         return;
     };
     let mut input = drillholes(
@@ -169,7 +165,7 @@ fn thalanga_massive_sulphide_loads_with_mixed_dip_signs_warned() {
 
 #[test]
 fn ararangua_thirteen_vertical_holes_give_a_coal_indicator() {
-    let Some(d) = dir("ararangua_coal_geomod3D") else {
+    let Some(d) = shared_data("ararangua_coal_geomod3D") else {
         return;
     };
     let mut input = Input::from_drillholes(
@@ -189,7 +185,7 @@ fn ararangua_thirteen_vertical_holes_give_a_coal_indicator() {
 
 #[test]
 fn mcmurray_las_logs_load_with_the_derived_locations_table() {
-    let Some(d) = dir("mcmurray_athabasca_las_subset") else {
+    let Some(d) = shared_data("mcmurray_athabasca_las_subset") else {
         return;
     };
     let mut las: Vec<InputFile> = std::fs::read_dir(d.join("logs"))
@@ -218,9 +214,7 @@ fn mcmurray_las_logs_load_with_the_derived_locations_table() {
 
 #[test]
 fn nlog_las_logs_need_locations_and_load_with_a_table() {
-    let Some(d) = dir("nlog_L07_wells_las") else {
-        return;
-    };
+    let d = sample("nlog_l07");
     let names = [
         "7264_l0701_1971_comp.las",
         "7265_l0704_1973_comp.las",
@@ -247,7 +241,7 @@ fn nlog_las_logs_need_locations_and_load_with_a_table() {
 
 #[test]
 fn the_broken_las_folder_loads_or_fails_cleanly_as_a_whole() {
-    let Some(d) = dir("las_kansas_alberta_broken") else {
+    let Some(d) = shared_data("las_kansas_alberta_broken") else {
         return;
     };
     let mut las: Vec<InputFile> = std::fs::read_dir(&d)

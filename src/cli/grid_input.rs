@@ -135,8 +135,14 @@ fn read(path: &Path) -> anyhow::Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("reading {}", path.display()))
 }
 
+/// Where the tests find the shared corpus of real data (they skip with a note without it).
+#[cfg(test)]
+#[path = "../../tests/common/mod.rs"]
+mod common;
+
 #[cfg(test)]
 mod tests {
+    use super::common::shared_data;
     use super::*;
     use clap::Parser;
 
@@ -219,15 +225,19 @@ mod tests {
         assert_eq!(grid.values[23], 23.0);
         assert_eq!(grid.points[23] - grid.points[0], DVec3::new(1.0, 4.0, 1.5));
 
-        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
-        let head = data.join("vtk_headsq/quarter.nhdr");
+        // The real files are in the shared corpus; without it the raw volume above is all.
+        let (Some(head), Some(fin)) = (
+            shared_data("vtk_headsq/quarter.nhdr"),
+            shared_data("vtk_plot3d_bluntfin_combustor"),
+        ) else {
+            return;
+        };
         let cli = Cli::try_parse_from(["t", "--grid", head.to_str().unwrap()]).unwrap();
         assert_eq!(
             cli.grid.load_with_variable(None).unwrap().dims,
             [64, 64, 93]
         );
 
-        let fin = data.join("vtk_plot3d_bluntfin_combustor");
         let cli = Cli::try_parse_from([
             "t",
             "--plot3d-xyz",
