@@ -1,0 +1,212 @@
+//! The figures `sample_wells/README.md` gives for what wellmesh makes of the sample wells are
+//! the program's own: each row of its two tables is run as written (output files moved to a
+//! scratch directory) and every figure compared with the program's to the precision printed.
+//! The tables are the only place those figures live: after a change that moves them, update
+//! the table (command, options and figures together), not this test.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use serde_json::Value;
+
+const README: &str = "sample_wells/README.md";
+
+/// One table row: header text -> cell text (backticks kept).
+type Row = HashMap<String, String>;
+
+/// The rows of the first table under the heading that starts with `heading`.
+fn table(readme: &str, heading: &str) -> Vec<Row> {
+    let mut lines = readme
+        .lines()
+        .skip_while(|l| !l.starts_with(heading))
+        .skip(1)
+        .skip_while(|l| !l.starts_with('|'));
+    let cells = |line: &str| -> Vec<String> {
+        let inner = line.trim().trim_start_matches('|').trim_end_matches('|');
+        inner.split('|').map(|c| c.trim().to_string()).collect()
+    };
+    let header = cells(
+        lines
+            .next()
+            .unwrap_or_else(|| panic!("{README}: no table under {heading:?}")),
+    );
+    let rows: Vec<Row> = lines
+        .skip(1) // the |---| line
+        .take_while(|l| l.starts_with('|'))
+        .map(|l| header.iter().cloned().zip(cells(l)).collect())
+        .collect();
+    assert!(
+        !rows.is_empty(),
+        "{README}: the table under {heading:?} has no rows"
+    );
+    rows
+}
+
+fn cell<'a>(row: &'a Row, column: &str) -> &'a str {
+    row.get(column)
+        .unwrap_or_else(|| panic!("{README}: no column {column:?} in {row:?}"))
+}
+
+/// The command of a row, as its words (the cell is one code span).
+fn command(row: &Row) -> Vec<String> {
+    let text = cell(row, "command");
+    let text = text
+        .strip_prefix('`')
+        .and_then(|t| t.strip_suffix('`'))
+        .unwrap_or_else(|| panic!("{README}: the command {text:?} is not one code span"));
+    let words: Vec<String> = text.split_whitespace().map(String::from).collect();
+    assert_eq!(words[0], "wellmesh", "{README}: {text:?}");
+    words
+}
+
+/// Runs `wellmesh` with `args` from the repository root; its standard output on success.
+fn wellmesh(args: &[String]) -> Vec<u8> {
+    let out = Command::new(env!("CARGO_BIN_EXE_wellmesh"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "wellmesh {}: {}",
+        args.join(" "),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out.stdout
+}
+
+/// Whether `text` (a figure as printed: spaces or commas between thousands, an optional sign
+/// and `%`) is `value` rounded to the decimals it shows.
+fn printed(value: f64, text: &str) -> bool {
+    let figure: String = text
+        .chars()
+        .filter(|c| !c.is_whitespace() && *c != ',' && *c != '%')
+        .collect();
+    // A leading `+` marks a positive figure; the digits are compared without it.
+    let (digits, plus) = match figure.strip_prefix('+') {
+        Some(rest) => (rest, true),
+        None => (figure.as_str(), false),
+    };
+    let decimals = digits.split_once('.').map_or(0, |(_, d)| d.len());
+    format!("{value:.decimals$}") == digits && (!plus || value > 0.0)
+}
+
+fn assert_printed(value: f64, text: &str, what: &str) {
+    assert!(
+        printed(value, text),
+        "{README}: {what} is printed as {text:?}, the program gives {value}"
+    );
+}
+
+/// A cell holding one figure per shell, `sep` between them.
+fn per_shell<'a>(row: &'a Row, column: &str, sep: &str, shells: usize) -> Vec<&'a str> {
+    let parts: Vec<&str> = cell(row, column).split(sep).map(str::trim).collect();
+    assert_eq!(
+        parts.len(),
+        shells,
+        "{README}: {column:?} {:?} has one figure per threshold ({shells})",
+        cell(row, column)
+    );
+    parts
+}
+
+fn scratch(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wellmesh-readme-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Runs a `contour` row's command with its GLB and summary written to `dir`; the summary.
+fn contour_summary(row: &Row, dir: &Path) -> Value {
+    let mut args = command(row)[1..].to_vec();
+    let glb = args.iter().position(|a| a == "-o" || a == "--output");
+    let glb =
+        glb.unwrap_or_else(|| panic!("{README}: {:?} writes no -o GLB", cell(row, "command")));
+    args[glb + 1] = dir.join("out.glb").to_string_lossy().into_owned();
+    let summary = dir.join("summary.json");
+    match args.iter().position(|a| a == "--summary") {
+        Some(i) => args[i + 1] = summary.to_string_lossy().into_owned(),
+        None => args.extend(["--summary".into(), summary.to_string_lossy().into_owned()]),
+    }
+    args.push("-q".into());
+    wellmesh(&args);
+    serde_json::from_slice(&std::fs::read(&summary).unwrap()).unwrap()
+}
+
+#[test]
+fn every_contour_row_of_the_sample_wells_table_is_what_the_program_prints() {
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(README)).unwrap();
+    let rows = table(&readme, "## What wellmesh makes of them");
+    for (i, row) in rows.iter().enumerate() {
+        let dir = scratch(&format!("contour{i}"));
+        let summary = contour_summary(row, &dir);
+        let what = |column: &str| format!("{column:?} of {:?}", cell(row, "command"));
+        assert_eq!(summary["method"], cell(row, "method"), "{}", what("method"));
+        let shells = summary["shells"].as_array().unwrap();
+        let n = shells.len();
+        let bodies = per_shell(row, "bodies", "+", n);
+        let closed = per_shell(row, "closed", "+", n);
+        let truncated = per_shell(row, "truncated at the hull", "+", n);
+        let volumes = per_shell(row, "volume (m3)", ";", n);
+        for (s, shell) in shells.iter().enumerate() {
+            let list = shell["bodies"].as_array().unwrap();
+            let count = |key: &str| list.iter().filter(|b| b[key] == true).count() as f64;
+            assert_printed(list.len() as f64, bodies[s], &what("bodies"));
+            assert_printed(count("closed"), closed[s], &what("closed"));
+            assert_printed(
+                count("truncated"),
+                truncated[s],
+                &what("truncated at the hull"),
+            );
+            let volume = shell["volume"].as_f64().unwrap();
+            assert_printed(volume, volumes[s], &what("volume (m3)"));
+            if cell(row, "exact (m3)") != "-" {
+                let exact = per_shell(row, "exact (m3)", ";", n)[s];
+                let exact: f64 = exact.replace([' ', ','], "").parse().unwrap();
+                let error = per_shell(row, "error", ";", n)[s];
+                assert_printed((volume / exact - 1.0) * 100.0, error, &what("error"));
+            }
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
+
+#[test]
+fn the_inspect_row_of_the_sample_wells_table_is_what_the_program_prints() {
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(README)).unwrap();
+    for row in table(&readme, "## What wellmesh reads from them") {
+        let args = command(&row)[1..].to_vec();
+        assert_eq!(args[0], "inspect");
+        assert!(
+            args.iter().any(|a| a == "--json"),
+            "{README}: {args:?} without --json"
+        );
+        let set: Value = serde_json::from_slice(&wellmesh(&args)).unwrap();
+        let report = &set["report"];
+        for (column, value) in [
+            ("holes read", &report["holes_read"]),
+            ("with samples", &report["holes_used"]),
+            ("samples", &set["samples"]),
+            ("don't know", &set["unknown_values"]),
+            ("gaps between intervals", &report["gaps"]),
+            ("holes with a station pointing up", &report["up_holes"]),
+        ] {
+            assert_printed(value.as_f64().unwrap(), cell(&row, column), column);
+        }
+        let (lo, hi) = cell(&row, "values").split_once(" - ").unwrap_or_else(|| {
+            panic!(
+                "{README}: values {:?} are not `LO - HI`",
+                cell(&row, "values")
+            )
+        });
+        assert_printed(
+            set["value_range"][0].as_f64().unwrap(),
+            lo,
+            "smallest value",
+        );
+        assert_printed(set["value_range"][1].as_f64().unwrap(), hi, "largest value");
+    }
+}
