@@ -320,7 +320,7 @@ const GRID_BITS: i32 = 47;
 /// 2^53)`, where the spacing of doubles is 1, so it is exact, and its bits less those of
 /// `1.5 * 2^52` are `x`. An add and a move, where `as i64` also tests for NaN and for
 /// overflow to saturate (the grid's predicates convert 6 to 15 coordinates per call;
-/// docs/benchmarks-history.md, *nineteenth part*, counts what this saves).
+/// docs/benchmarks-history.md in git history, *nineteenth part*, counts what this saves).
 #[inline(always)]
 fn grid_int(x: f64) -> i64 {
     const MAGIC: f64 = 6_755_399_441_055_744.0;
@@ -620,7 +620,8 @@ const ONE_ON_E: [[WellsTie; 3]; 4] = {
 /// arrays of scalars, one per axis: passed as an array of points, they were copied
 /// through the stack twice and read back in 16-byte loads from 8-byte stores (a stalled
 /// store forwarding each), and the ties took 9.9-11.3% of a one-thread build of the 1M
-/// UTM lattice under `perf` instead of 8.3-9.0% (docs/benchmarks-history.md, *nineteenth part*).
+/// UTM lattice under `perf` instead of 8.3-9.0% (docs/benchmarks-history.md in git
+/// history, *nineteenth part*).
 #[inline]
 pub fn vertical_wells_tie(p: impl Fn(usize) -> DVec3 + Copy, e: DVec3) -> Option<WellsTie> {
     let (ex, ey) = (e.x.to_bits(), e.y.to_bits());

@@ -117,7 +117,7 @@ pub(super) fn orient_len_bound(det: f64, a: DVec3, b: DVec3, c: DVec3, d: DVec3)
 /// points), as one `maxsd`. `f64::max` also handles NaN, which costs a compare and a
 /// blend more per step, on the chain the grid kernel's bounds and their jumps wait on:
 /// the insphere bound's lift with `f64::max` made a one-thread 1M UTM lattice build
-/// about 4% slower (docs/benchmarks-history.md, *twenty-third part*).
+/// about 4% slower (docs/benchmarks-history.md in git history, *twenty-third part*).
 #[inline(always)]
 fn max_of_numbers(a: f64, b: f64) -> f64 {
     if a > b { a } else { b }

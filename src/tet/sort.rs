@@ -172,7 +172,8 @@ pub fn insertion_order(points: &[DVec3], (lo, hi): (DVec3, DVec3)) -> InsertionO
     // Each axis scaled to the curve's whole range on its own (the bounding box, not its
     // cube): well data spans kilometres across and a few hundred metres down, and a cube
     // would leave the curve's coarse levels blind to depth. The walks on the 1M UTM lattice
-    // visit 4.4 cells instead of 10.1, ~10% less time on both lattices (docs/benchmarks-history.md).
+    // visit 4.4 cells instead of 10.1, ~10% less time on both lattices
+    // (docs/benchmarks-history.md in git history).
     let extent = hi - lo;
     let cells = f64::from((1u32 << HILBERT_BITS) - 1);
     let scale = DVec3::select(
