@@ -203,6 +203,8 @@ pub enum JobStoreError {
     QueueFull { queued: i64 },
     #[error("database error: {0}")]
     Database(#[from] sqlx::Error),
+    #[error("migrating the job database: {0}")]
+    Migration(#[from] sqlx::migrate::MigrateError),
     #[error("stored job is corrupt: {0}")]
     Corrupt(String),
     #[error("unsupported database URL {0:?}: expected sqlite:// or postgres://")]
@@ -302,7 +304,7 @@ pub fn now_ms() -> i64 {
 }
 
 /// Opens the store a URL names: `sqlite://PATH` (created if missing) or
-/// `postgres://...`. The schema is created if it does not exist.
+/// `postgres://...`. The schema is migrated to the newest version (`migrations/`).
 pub async fn open_store(url: &str) -> Result<Arc<dyn JobStore>, JobStoreError> {
     if url.starts_with("sqlite:") {
         Ok(Arc::new(SqliteStore::connect(url).await?))

@@ -7,8 +7,9 @@ use std::str::FromStr;
 use std::time::Duration;
 
 use async_trait::async_trait;
-use sqlx::Row;
-use sqlx::postgres::{PgConnectOptions, PgPool, PgPoolOptions, PgRow};
+use sqlx::migrate::Migrator;
+use sqlx::postgres::{PgConnectOptions, PgConnection, PgPool, PgPoolOptions, PgRow};
+use sqlx::{Connection, Row};
 use uuid::Uuid;
 
 use super::{
@@ -16,34 +17,8 @@ use super::{
     OutputInfo, StateCounts, StoredOutput,
 };
 
-const SCHEMA: &[&str] = &[
-    "CREATE TABLE IF NOT EXISTS jobs (
-        id TEXT PRIMARY KEY,
-        state TEXT NOT NULL,
-        message TEXT NOT NULL DEFAULT '',
-        progress BIGINT NOT NULL DEFAULT 0,
-        inputs BYTEA NOT NULL,
-        attempt BIGINT NOT NULL DEFAULT 0,
-        released BIGINT NOT NULL DEFAULT 0,
-        max_attempts BIGINT NOT NULL,
-        failure TEXT,
-        lease_owner TEXT,
-        lease_expires_ms BIGINT,
-        created_ms BIGINT NOT NULL,
-        started_ms BIGINT,
-        finished_ms BIGINT,
-        updated_ms BIGINT NOT NULL
-    )",
-    "CREATE INDEX IF NOT EXISTS jobs_by_state ON jobs (state, created_ms)",
-    "CREATE TABLE IF NOT EXISTS job_outputs (
-        job_id TEXT NOT NULL REFERENCES jobs (id) ON DELETE CASCADE,
-        output_id TEXT NOT NULL,
-        file_name TEXT NOT NULL,
-        media_type TEXT NOT NULL,
-        bytes BYTEA NOT NULL,
-        PRIMARY KEY (job_id, output_id)
-    )",
-];
+/// The schema's versioned migrations (`migrations/postgres/`), embedded in the binary.
+static MIGRATOR: Migrator = sqlx::migrate!("migrations/postgres");
 
 const JOB_COLUMNS: &str = "id, state, message, progress, attempt, max_attempts, failure, \
      created_ms, started_ms, finished_ms, updated_ms";
@@ -55,7 +30,8 @@ pub struct PostgresStore {
 }
 
 impl PostgresStore {
-    /// Connects to the database a `postgres://` URL names and creates the schema.
+    /// Connects to the database a `postgres://` URL names and brings its schema to the
+    /// newest migration.
     pub async fn connect(url: &str) -> Result<Self, JobStoreError> {
         Self::connect_with(PgConnectOptions::from_str(url)?).await
     }
@@ -77,20 +53,17 @@ impl PostgresStore {
     }
 
     async fn connect_with(options: PgConnectOptions) -> Result<Self, JobStoreError> {
+        // Several nodes may start at once: the migrator holds a session advisory lock
+        // while it runs. It runs on a connection of its own, closed afterwards, so a
+        // failed migration cannot leave that lock held by a pooled connection.
+        let mut migrating = PgConnection::connect_with(&options).await?;
+        MIGRATOR.run_direct(&mut migrating).await?;
+        migrating.close().await?;
         let pool = PgPoolOptions::new()
             .max_connections(8)
             .acquire_timeout(Duration::from_secs(10))
             .connect_with(options)
             .await?;
-        // Several nodes may start at once: create the schema under an advisory lock.
-        let mut tx = pool.begin().await?;
-        sqlx::query("SELECT pg_advisory_xact_lock(7236001)")
-            .execute(&mut *tx)
-            .await?;
-        for statement in SCHEMA {
-            sqlx::query(statement).execute(&mut *tx).await?;
-        }
-        tx.commit().await?;
         Ok(PostgresStore { pool })
     }
 }

@@ -7,6 +7,7 @@ use std::str::FromStr;
 use std::time::Duration;
 
 use async_trait::async_trait;
+use sqlx::migrate::Migrator;
 use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions};
 use sqlx::{Row, sqlite::SqliteRow};
 use uuid::Uuid;
@@ -16,34 +17,8 @@ use super::{
     OutputInfo, StateCounts, StoredOutput,
 };
 
-const SCHEMA: &[&str] = &[
-    "CREATE TABLE IF NOT EXISTS jobs (
-        id TEXT PRIMARY KEY,
-        state TEXT NOT NULL,
-        message TEXT NOT NULL DEFAULT '',
-        progress INTEGER NOT NULL DEFAULT 0,
-        inputs BLOB NOT NULL,
-        attempt INTEGER NOT NULL DEFAULT 0,
-        released INTEGER NOT NULL DEFAULT 0,
-        max_attempts INTEGER NOT NULL,
-        failure TEXT,
-        lease_owner TEXT,
-        lease_expires_ms INTEGER,
-        created_ms INTEGER NOT NULL,
-        started_ms INTEGER,
-        finished_ms INTEGER,
-        updated_ms INTEGER NOT NULL
-    )",
-    "CREATE INDEX IF NOT EXISTS jobs_by_state ON jobs (state, created_ms)",
-    "CREATE TABLE IF NOT EXISTS job_outputs (
-        job_id TEXT NOT NULL REFERENCES jobs (id) ON DELETE CASCADE,
-        output_id TEXT NOT NULL,
-        file_name TEXT NOT NULL,
-        media_type TEXT NOT NULL,
-        bytes BLOB NOT NULL,
-        PRIMARY KEY (job_id, output_id)
-    )",
-];
+/// The schema's versioned migrations (`migrations/sqlite/`), embedded in the binary.
+static MIGRATOR: Migrator = sqlx::migrate!("migrations/sqlite");
 
 const JOB_COLUMNS: &str = "id, state, message, progress, attempt, max_attempts, failure, \
      created_ms, started_ms, finished_ms, updated_ms";
@@ -55,7 +30,8 @@ pub struct SqliteStore {
 }
 
 impl SqliteStore {
-    /// Opens (creating if needed) the database a `sqlite://PATH` URL names.
+    /// Opens (creating if needed) the database a `sqlite://PATH` URL names and brings its
+    /// schema to the newest migration.
     pub async fn connect(url: &str) -> Result<Self, JobStoreError> {
         let options = SqliteConnectOptions::from_str(url)?
             .create_if_missing(true)
@@ -66,9 +42,7 @@ impl SqliteStore {
             .max_connections(4)
             .connect_with(options)
             .await?;
-        for statement in SCHEMA {
-            sqlx::query(statement).execute(&pool).await?;
-        }
+        MIGRATOR.run(&pool).await?;
         Ok(SqliteStore { pool })
     }
 }
