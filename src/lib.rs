@@ -22,5 +22,6 @@ pub mod grid;
 pub mod jobs;
 pub mod process;
 pub mod progress;
+pub mod startup;
 pub mod tet;
 pub mod wells;

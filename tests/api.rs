@@ -1,5 +1,6 @@
-//! The HTTP API end to end in one process: router + SQLite store + workers running a
-//! test pipeline whose outcome and duration the tests control.
+//! The HTTP API end to end: the real application started on port 0 with a fresh SQLite
+//! store, spoken to over HTTP, its workers running a test pipeline whose outcome and
+//! duration the tests control.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -9,15 +10,16 @@ use std::time::Duration;
 use axum::body::Body;
 use axum::http::{HeaderMap, Request, StatusCode, header};
 use http_body_util::BodyExt;
+use hyper_util::client::legacy::Client;
+use hyper_util::client::legacy::connect::HttpConnector;
+use hyper_util::rt::TokioExecutor;
 use serde_json::{Value, json};
-use tokio::sync::Notify;
-use tower::ServiceExt;
-use wellmesh::api::{self, ApiConfig, AppState};
-use wellmesh::jobs::{
-    JobFailure, JobMetrics, JobStore, Pipeline, SqliteStore, StoredOutput, WorkerConfig, WorkerPool,
-};
+use tokio::sync::oneshot;
+use wellmesh::api::{self, ApiConfig};
+use wellmesh::jobs::{JobFailure, Pipeline, StoredOutput};
 use wellmesh::process::ProcessInputs;
 use wellmesh::progress::{Progress, Stage};
+use wellmesh::startup::{Application, Settings};
 
 /// Answers a summary naming the thresholds and point count, and a GLB-like blob;
 /// with `hold` set it waits (checking cancellation) until the flag is cleared.
@@ -63,9 +65,12 @@ impl Pipeline for TestPipeline {
 }
 
 struct TestApp {
-    router: axum::Router,
+    /// `http://127.0.0.1:PORT`, where the application listens.
+    address: String,
+    client: Client<HttpConnector, Body>,
     pipeline: Arc<TestPipeline>,
-    _pool: Option<WorkerPool>,
+    /// Dropped with the test: the application then shuts down.
+    _stop: oneshot::Sender<()>,
 }
 
 struct Answer {
@@ -81,51 +86,50 @@ impl Answer {
     }
 }
 
+/// Starts the real application (`Application::build`) on port 0 with a fresh SQLite
+/// store in its own directory, `workers` embedded workers running the test pipeline,
+/// and the API limits `configure` sets over the defaults.
 async fn spawn_app(configure: impl FnOnce(&mut ApiConfig), workers: usize) -> TestApp {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
         .join(format!("api-{}", uuid::Uuid::new_v4().simple()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let url = format!("sqlite://{}", dir.join("jobs.db").display());
-    let store: Arc<dyn JobStore> = Arc::new(SqliteStore::connect(&url).await.unwrap());
-    let mut config = ApiConfig {
-        viewer_dir: dir.join("viewer"),
-        sync_wait: Duration::from_secs(20),
-        ..ApiConfig::default()
+    let mut settings = Settings {
+        bind: "127.0.0.1:0".parse().unwrap(),
+        data_dir: dir.clone(),
+        ..Settings::default()
     };
-    configure(&mut config);
-    let wake = Arc::new(Notify::new());
-    let metrics = Arc::new(JobMetrics::default());
+    settings.api.viewer_dir = dir.join("viewer");
+    settings.api.sync_wait = Duration::from_secs(20);
+    settings.worker.concurrency = workers;
+    settings.worker.heartbeat = Duration::from_millis(50);
+    settings.worker.poll = Duration::from_millis(50);
+    configure(&mut settings.api);
     let pipeline = Arc::new(TestPipeline::default());
-    let pool = (workers > 0).then(|| {
-        WorkerPool::start(
-            store.clone(),
-            pipeline.clone(),
-            WorkerConfig {
-                concurrency: workers,
-                heartbeat: Duration::from_millis(50),
-                poll: Duration::from_millis(50),
-                ..WorkerConfig::default()
-            },
-            wake.clone(),
-            metrics.clone(),
-        )
-    });
-    let router = api::router(AppState {
-        store,
-        config: Arc::new(config),
-        wake,
-        metrics,
-    });
+    let app = Application::build_with_pipeline(settings, pipeline.clone())
+        .await
+        .unwrap();
+    let address = format!("http://127.0.0.1:{}", app.port());
+    let (stop, stopped) = oneshot::channel::<()>();
+    tokio::spawn(app.run_until(async move {
+        let _ = stopped.await;
+    }));
     TestApp {
-        router,
+        address,
+        client: Client::builder(TokioExecutor::new()).build_http(),
         pipeline,
-        _pool: pool,
+        _stop: stop,
     }
 }
 
 impl TestApp {
+    /// Sends `request` (its URI a path) to the application over HTTP.
     async fn send(&self, request: Request<Body>) -> Answer {
-        let response = self.router.clone().oneshot(request).await.unwrap();
+        let (mut parts, body) = request.into_parts();
+        parts.uri = format!("{}{}", self.address, parts.uri).parse().unwrap();
+        let response = self
+            .client
+            .request(Request::from_parts(parts, body))
+            .await
+            .unwrap();
         let status = response.status();
         let headers = response.headers().clone();
         let body = response

@@ -34,7 +34,7 @@ pub use openapi::{ApiDoc, openapi_json};
 pub use problem::Problem;
 
 /// Limits and switches of the HTTP side.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ApiConfig {
     /// Largest accepted request body (413 beyond).
     pub max_body_bytes: usize,

@@ -13,6 +13,7 @@ pub mod inspect;
 pub mod openapi;
 pub mod outputs;
 pub mod serve;
+pub mod service_flags;
 pub mod tetrahedralize;
 pub mod worker;
 
