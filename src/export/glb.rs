@@ -1,102 +1,253 @@
-//! The GLB writer: glTF 2.0 binary, Y-up, positions relative to the local origin.
+//! The GLB writer: glTF 2.0 binary, Y-up, positions relative to the local origin, built as
+//! a typed glTF document (`gltf::json`) and packed by `gltf::binary`.
 //!
 //! Invariant: axes are (east, up, -north) = (local x, local z, -local y), a proper
 //! rotation, so triangle winding (counter-clockwise from outside) is kept; each body is one
 //! mesh of indexed triangles sharing vertices, exactly `Body::triangles`; every figure in
 //! `extras` comes from the summary.
 
+use std::borrow::Cow;
+
 use glam::DVec3;
-use serde_json::{Map, Value, json};
+use gltf::binary::{Glb, Header};
+use gltf::json::accessor::{ComponentType, GenericComponentType, Type};
+use gltf::json::buffer::Target;
+use gltf::json::material::{AlphaMode, PbrBaseColorFactor, PbrMetallicRoughness, StrengthFactor};
+use gltf::json::mesh::{Mode, Primitive, Semantic};
+use gltf::json::validation::Checked::Valid;
+use gltf::json::validation::USize64;
+use gltf::json::{self, Index};
+use serde::Serialize;
 
 use super::{ExportError, OutputOptions, body_name, check_consistent, shell_name};
-use crate::contour::ContourResult;
-
-const FLOAT: u32 = 5126;
-const UNSIGNED_INT: u32 = 5125;
-const ARRAY_BUFFER: u32 = 34962;
-const ELEMENT_ARRAY_BUFFER: u32 = 34963;
-const MODE_POINTS: u32 = 0;
-const MODE_LINES: u32 = 1;
-const MODE_TRIANGLES: u32 = 4;
+use crate::contour::{ContourResult, ShellSummary, Summary};
+use crate::dmt::{Body, Shell};
+use crate::wells::SampleSet;
 
 /// Opacity of shells that enclose a higher-threshold shell.
-const OUTER_SHELL_ALPHA: f64 = 0.35;
+const OUTER_SHELL_ALPHA: f32 = 0.35;
 
 /// A local (x east, y north, z up) position in glTF axes (east, up, -north).
 fn to_gltf(p: DVec3) -> [f32; 3] {
     [p.x as f32, p.z as f32, (-p.y) as f32]
 }
 
-/// The binary chunk under construction and the JSON arrays describing it.
-#[derive(Default)]
-struct Builder {
-    bin: Vec<u8>,
-    buffer_views: Vec<Value>,
-    accessors: Vec<Value>,
+/// The `extras` of a typed glTF object: `value` as raw JSON.
+fn extras(value: &impl Serialize) -> Result<json::Extras, ExportError> {
+    Ok(Some(serde_json::value::to_raw_value(value)?))
 }
 
-impl Builder {
-    /// Appends `data` as a new buffer view (4-byte aligned) and returns its index.
-    fn view(&mut self, data: &[u8], target: u32) -> usize {
+/// Figures of one body, on its node and its mesh.
+#[derive(Serialize)]
+struct BodyExtras<'a> {
+    shell: usize,
+    body: usize,
+    threshold: f64,
+    volume: f64,
+    area: f64,
+    closed: bool,
+    truncated: bool,
+    mt_fallback: bool,
+    bbox: &'a [[f64; 3]; 2],
+}
+
+/// Figures of one shell, on its node.
+#[derive(Serialize)]
+struct ShellExtras {
+    shell: usize,
+    threshold: f64,
+    volume: f64,
+    area: f64,
+    bodies: usize,
+}
+
+/// The georeference, on the scene.
+#[derive(Serialize)]
+struct SceneExtras<'a> {
+    origin: [f64; 3],
+    crs: &'a Option<String>,
+    unit: &'a str,
+    method: &'a str,
+    axes: &'static str,
+}
+
+/// The hole ids, on the `drill holes` node.
+#[derive(Serialize)]
+struct TraceExtras<'a> {
+    wells: Vec<&'a str>,
+}
+
+/// The sample count and value range, on the `samples` node (the range only when some
+/// value is known).
+#[derive(Serialize)]
+struct SampleExtras {
+    samples: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    value_min: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    value_max: Option<f64>,
+}
+
+/// The glTF document under construction and its binary chunk (buffer 0).
+#[derive(Default)]
+struct Document {
+    root: json::Root,
+    bin: Vec<u8>,
+}
+
+impl Document {
+    /// Appends `data` to the binary chunk (4-byte aligned) as a new buffer view.
+    fn view(&mut self, data: &[u8], target: Target) -> Index<json::buffer::View> {
         let offset = self.bin.len();
         self.bin.extend_from_slice(data);
         while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
-        self.buffer_views.push(json!({
-            "buffer": 0,
-            "byteOffset": offset,
-            "byteLength": data.len(),
-            "target": target,
-        }));
-        self.buffer_views.len() - 1
+        self.root.push(json::buffer::View {
+            buffer: Index::new(0),
+            byte_length: USize64::from(data.len()),
+            byte_offset: Some(USize64::from(offset)),
+            byte_stride: None,
+            target: Some(Valid(target)),
+            name: None,
+            extensions: None,
+            extras: None,
+        })
+    }
+
+    /// An accessor of `count` elements of `type_` over a new view of `data`.
+    fn accessor(
+        &mut self,
+        data: &[u8],
+        target: Target,
+        component: ComponentType,
+        type_: Type,
+        count: usize,
+        bounds: Option<([f32; 3], [f32; 3])>,
+    ) -> Index<json::Accessor> {
+        let view = self.view(data, target);
+        let (min, max) = match bounds {
+            Some((min, max)) => (Some(min.into()), Some(max.into())),
+            None => (None, None),
+        };
+        self.root.push(json::Accessor {
+            buffer_view: Some(view),
+            byte_offset: None,
+            count: USize64::from(count),
+            component_type: Valid(GenericComponentType(component)),
+            type_: Valid(type_),
+            min,
+            max,
+            normalized: false,
+            sparse: None,
+            name: None,
+            extensions: None,
+            extras: None,
+        })
     }
 
     /// A VEC3 float accessor; `with_bounds` adds `min`/`max` (required for POSITION).
-    fn vec3(&mut self, values: &[[f32; 3]], with_bounds: bool) -> usize {
-        let mut data = Vec::with_capacity(values.len() * 12);
-        for v in values {
-            for c in v {
-                data.extend_from_slice(&c.to_le_bytes());
-            }
-        }
-        let view = self.view(&data, ARRAY_BUFFER);
-        let mut accessor = json!({
-            "bufferView": view,
-            "componentType": FLOAT,
-            "count": values.len(),
-            "type": "VEC3",
+    fn vec3(&mut self, values: &[[f32; 3]], with_bounds: bool) -> Index<json::Accessor> {
+        let data: Vec<u8> = values
+            .iter()
+            .flatten()
+            .flat_map(|c| c.to_le_bytes())
+            .collect();
+        let bounds = with_bounds.then(|| {
+            values.iter().fold(
+                ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+                |(min, max), v| {
+                    (
+                        std::array::from_fn(|k| min[k].min(v[k])),
+                        std::array::from_fn(|k| max[k].max(v[k])),
+                    )
+                },
+            )
         });
-        if with_bounds {
-            let mut min = [f32::INFINITY; 3];
-            let mut max = [f32::NEG_INFINITY; 3];
-            for v in values {
-                for k in 0..3 {
-                    min[k] = min[k].min(v[k]);
-                    max[k] = max[k].max(v[k]);
-                }
-            }
-            accessor["min"] = json!(min);
-            accessor["max"] = json!(max);
-        }
-        self.accessors.push(accessor);
-        self.accessors.len() - 1
+        let (target, count) = (Target::ArrayBuffer, values.len());
+        self.accessor(&data, target, ComponentType::F32, Type::Vec3, count, bounds)
     }
 
     /// A SCALAR unsigned-int index accessor.
-    fn indices(&mut self, indices: &[u32]) -> usize {
-        let mut data = Vec::with_capacity(indices.len() * 4);
-        for i in indices {
-            data.extend_from_slice(&i.to_le_bytes());
+    fn indices(&mut self, indices: &[u32]) -> Index<json::Accessor> {
+        let data: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+        let (target, count) = (Target::ElementArrayBuffer, indices.len());
+        self.accessor(&data, target, ComponentType::U32, Type::Scalar, count, None)
+    }
+
+    /// A matte material of `colour` (linear RGBA), blended when its alpha is below 1.
+    fn material(
+        &mut self,
+        name: String,
+        colour: [f32; 4],
+        roughness: f32,
+    ) -> Index<json::Material> {
+        self.root.push(json::Material {
+            name: Some(name),
+            alpha_mode: Valid(if colour[3] < 1.0 {
+                AlphaMode::Blend
+            } else {
+                AlphaMode::Opaque
+            }),
+            pbr_metallic_roughness: PbrMetallicRoughness {
+                base_color_factor: PbrBaseColorFactor(colour),
+                metallic_factor: StrengthFactor(0.0),
+                roughness_factor: StrengthFactor(roughness),
+                ..PbrMetallicRoughness::default()
+            },
+            ..json::Material::default()
+        })
+    }
+
+    /// A mesh of one primitive.
+    fn mesh(
+        &mut self,
+        name: String,
+        primitive: Primitive,
+        extras: json::Extras,
+    ) -> Index<json::Mesh> {
+        self.root.push(json::Mesh {
+            name: Some(name),
+            primitives: vec![primitive],
+            weights: None,
+            extensions: None,
+            extras,
+        })
+    }
+
+    /// The GLB: the document as the JSON chunk, then the binary chunk (left out when
+    /// empty), each padded to 4 bytes.
+    fn into_glb(mut self) -> Result<Vec<u8>, ExportError> {
+        if !self.bin.is_empty() {
+            self.root.push(json::Buffer {
+                byte_length: USize64::from(self.bin.len()),
+                uri: None,
+                name: None,
+                extensions: None,
+                extras: None,
+            });
         }
-        let view = self.view(&data, ELEMENT_ARRAY_BUFFER);
-        self.accessors.push(json!({
-            "bufferView": view,
-            "componentType": UNSIGNED_INT,
-            "count": indices.len(),
-            "type": "SCALAR",
-        }));
-        self.accessors.len() - 1
+        let json = serde_json::to_vec(&self.root)?;
+        let padded = |n: usize| n.next_multiple_of(4) as u64;
+        let total = 12
+            + 8
+            + padded(json.len())
+            + if self.bin.is_empty() {
+                0
+            } else {
+                8 + padded(self.bin.len())
+            };
+        let length = u32::try_from(total).map_err(|_| ExportError::TooLarge(total))?;
+        let glb = Glb {
+            header: Header {
+                magic: *b"glTF",
+                version: 2,
+                length,
+            },
+            json: Cow::Owned(json),
+            bin: (!self.bin.is_empty()).then_some(Cow::Owned(self.bin)),
+        };
+        Ok(glb.to_vec()?)
     }
 }
 
@@ -157,15 +308,36 @@ fn sample_colour(value: Option<f64>, min: f64, max: f64) -> [f32; 3] {
 /// The GLB of a result: one node per shell (that has bodies) with one child node and mesh
 /// per body, plus optional `drill holes` (LINES) and `samples` (POINTS) nodes.
 pub fn glb(result: &ContourResult, options: &OutputOptions) -> Result<Vec<u8>, ExportError> {
-    check_consistent(result)?;
-    let summary = &result.summary;
-    let mut b = Builder::default();
-    let mut nodes: Vec<Value> = Vec::new();
-    let mut meshes: Vec<Value> = Vec::new();
-    let mut materials: Vec<Value> = Vec::new();
-    let mut roots: Vec<usize> = Vec::new();
+    document(result, options)?.into_glb()
+}
 
-    // Shells with bodies get a material, coloured by their threshold's rank.
+/// The glTF document of [`glb`] with its binary chunk.
+fn document(result: &ContourResult, options: &OutputOptions) -> Result<Document, ExportError> {
+    check_consistent(result)?;
+    let mut doc = Document::default();
+    let mut roots = add_shells(&mut doc, result)?;
+    if options.well_traces {
+        roots.extend(add_well_traces(&mut doc, &result.samples)?);
+    }
+    if options.well_samples {
+        roots.extend(add_samples(&mut doc, &result.samples)?);
+    }
+    let scene = add_scene(&mut doc, &result.summary, roots)?;
+    doc.root.scene = Some(scene);
+    doc.root.asset = json::Asset {
+        version: "2.0".to_owned(),
+        generator: Some(concat!("wellmesh ", env!("CARGO_PKG_VERSION")).to_owned()),
+        ..json::Asset::default()
+    };
+    Ok(doc)
+}
+
+/// One root node per shell that has bodies, with its material (coloured by the rank of its
+/// threshold, translucent unless it is the highest) and one child node per body.
+fn add_shells(
+    doc: &mut Document,
+    result: &ContourResult,
+) -> Result<Vec<Index<json::Node>>, ExportError> {
     let mut ranked: Vec<(f64, usize)> = result
         .shells
         .iter()
@@ -175,250 +347,238 @@ pub fn glb(result: &ContourResult, options: &OutputOptions) -> Result<Vec<u8>, E
         .collect();
     ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
     let shown = ranked.len();
-
-    for (s, (shell, shell_summary)) in result.shells.iter().zip(&summary.shells).enumerate() {
+    let mut roots = Vec::with_capacity(shown);
+    for (s, (shell, shell_summary)) in result.shells.iter().zip(&result.summary.shells).enumerate()
+    {
         if shell.bodies.is_empty() {
             continue;
         }
         let rank = ranked.iter().position(|&(_, i)| i == s).unwrap_or(0);
-        let colour = shell_colour(rank, shown);
-        let translucent = rank + 1 < shown;
-        let alpha = if translucent { OUTER_SHELL_ALPHA } else { 1.0 };
-        let mut material = json!({
-            "name": shell_name(s, shell.threshold),
-            "pbrMetallicRoughness": {
-                "baseColorFactor": [colour[0], colour[1], colour[2], alpha],
-                "metallicFactor": 0.0,
-                "roughnessFactor": 0.7,
-            },
-        });
-        if translucent {
-            material["alphaMode"] = json!("BLEND");
-        }
-        materials.push(material);
-        let material_index = materials.len() - 1;
-
-        let mut children = Vec::with_capacity(shell.bodies.len());
-        for (i, (body, body_summary)) in shell.bodies.iter().zip(&shell_summary.bodies).enumerate()
-        {
-            let positions: Vec<[f32; 3]> = body.positions.iter().map(|&p| to_gltf(p)).collect();
-            let normals: Vec<[f32; 3]> = vertex_normals(&body.positions, &body.triangles)
-                .into_iter()
-                .map(to_gltf)
-                .collect();
-            let indices: Vec<u32> = body.triangles.iter().flatten().copied().collect();
-            let name = body_name(s, shell.threshold, i);
-            let extras = json!({
-                "shell": s + 1,
-                "body": i + 1,
-                "threshold": shell.threshold,
-                "volume": body_summary.volume,
-                "area": body_summary.area,
-                "closed": body_summary.closed,
-                "truncated": body_summary.truncated,
-                "mt_fallback": body_summary.mt_fallback,
-                "bbox": body_summary.bbox,
-            });
-            let mut node = json!({ "name": name, "extras": extras });
-            // A body without triangles keeps its node (and figures) but has nothing to draw.
-            if !indices.is_empty() {
-                let position = b.vec3(&positions, true);
-                let normal = b.vec3(&normals, false);
-                let index = b.indices(&indices);
-                meshes.push(json!({
-                    "name": name,
-                    "primitives": [{
-                        "attributes": { "POSITION": position, "NORMAL": normal },
-                        "indices": index,
-                        "mode": MODE_TRIANGLES,
-                        "material": material_index,
-                    }],
-                    "extras": extras,
-                }));
-                node["mesh"] = json!(meshes.len() - 1);
-            }
-            nodes.push(node);
-            children.push(nodes.len() - 1);
-        }
-        nodes.push(json!({
-            "name": shell_name(s, shell.threshold),
-            "children": children,
-            "extras": {
-                "shell": s + 1,
-                "threshold": shell.threshold,
-                "volume": shell_summary.volume,
-                "area": shell_summary.area,
-                "bodies": shell.bodies.len(),
-            },
-        }));
-        roots.push(nodes.len() - 1);
-    }
-
-    let samples = &result.samples;
-    if options.well_traces {
-        let mut positions = Vec::new();
-        let mut indices = Vec::new();
-        let mut ids = Vec::new();
-        for well in &samples.wells {
-            if well.trace.iter().any(|p| !p.is_finite()) {
-                continue;
-            }
-            // Repeated stations would make zero-length segments.
-            let mut trace: Vec<[f32; 3]> = well.trace.iter().map(|&p| to_gltf(p)).collect();
-            trace.dedup();
-            if trace.len() < 2 {
-                continue;
-            }
-            let first = positions.len() as u32;
-            for k in 1..trace.len() as u32 {
-                indices.extend([first + k - 1, first + k]);
-            }
-            positions.extend(trace);
-            ids.push(well.id.clone());
-        }
-        if !indices.is_empty() {
-            materials.push(json!({
-                "name": "drill holes",
-                "pbrMetallicRoughness": {
-                    "baseColorFactor": [0.6, 0.6, 0.55, 1.0],
-                    "metallicFactor": 0.0,
-                    "roughnessFactor": 1.0,
-                },
-            }));
-            let position = b.vec3(&positions, true);
-            let index = b.indices(&indices);
-            meshes.push(json!({
-                "name": "drill holes",
-                "primitives": [{
-                    "attributes": { "POSITION": position },
-                    "indices": index,
-                    "mode": MODE_LINES,
-                    "material": materials.len() - 1,
-                }],
-            }));
-            nodes.push(json!({
-                "name": "drill holes",
-                "mesh": meshes.len() - 1,
-                "extras": { "wells": ids },
-            }));
-            roots.push(nodes.len() - 1);
-        }
-    }
-    if options.well_samples {
-        let known = samples
-            .values
-            .iter()
-            .flatten()
-            .copied()
-            .filter(|v| v.is_finite());
-        let (min, max) = known.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(v), hi.max(v))
-        });
-        let mut positions = Vec::new();
-        let mut colours = Vec::new();
-        for (p, v) in samples.points.iter().zip(&samples.values) {
-            if !p.is_finite() {
-                continue;
-            }
-            positions.push(to_gltf(*p));
-            colours.push(sample_colour(v.filter(|v| v.is_finite()), min, max));
-        }
-        if !positions.is_empty() {
-            materials.push(json!({
-                "name": "samples",
-                "pbrMetallicRoughness": {
-                    "baseColorFactor": [1.0, 1.0, 1.0, 1.0],
-                    "metallicFactor": 0.0,
-                    "roughnessFactor": 1.0,
-                },
-            }));
-            let position = b.vec3(&positions, true);
-            let colour = b.vec3(&colours, false);
-            meshes.push(json!({
-                "name": "samples",
-                "primitives": [{
-                    "attributes": { "POSITION": position, "COLOR_0": colour },
-                    "mode": MODE_POINTS,
-                    "material": materials.len() - 1,
-                }],
-            }));
-            let mut extras = json!({ "samples": positions.len() });
-            if min <= max {
-                extras["value_min"] = json!(min);
-                extras["value_max"] = json!(max);
-            }
-            nodes.push(json!({
-                "name": "samples",
-                "mesh": meshes.len() - 1,
-                "extras": extras,
-            }));
-            roots.push(nodes.len() - 1);
-        }
-    }
-
-    let mut root = Map::new();
-    root.insert(
-        "asset".into(),
-        json!({ "version": "2.0", "generator": concat!("wellmesh ", env!("CARGO_PKG_VERSION")) }),
-    );
-    root.insert("scene".into(), json!(0));
-    root.insert(
-        "scenes".into(),
-        json!([{
-            "name": "wellmesh",
-            "nodes": roots,
-            "extras": {
-                "origin": summary.origin,
-                "crs": summary.crs,
-                "unit": summary.unit,
-                "method": summary.method,
-                "axes": "x east, y up, z south (local, relative to origin)",
-            },
-        }]),
-    );
-    for (key, array) in [
-        ("nodes", nodes),
-        ("meshes", meshes),
-        ("materials", materials),
-        ("accessors", b.accessors),
-        ("bufferViews", b.buffer_views),
-    ] {
-        if !array.is_empty() {
-            root.insert(key.into(), Value::Array(array));
-        }
-    }
-    if !b.bin.is_empty() {
-        root.insert("buffers".into(), json!([{ "byteLength": b.bin.len() }]));
-    }
-    let mut json_chunk = serde_json::to_vec(&Value::Object(root))?;
-    while !json_chunk.len().is_multiple_of(4) {
-        json_chunk.push(b' ');
-    }
-    let bin_chunk = b.bin;
-    let total = 12
-        + 8
-        + json_chunk.len() as u64
-        + if bin_chunk.is_empty() {
-            0
+        let [r, g, b] = shell_colour(rank, shown).map(|c| c as f32);
+        let alpha = if rank + 1 < shown {
+            OUTER_SHELL_ALPHA
         } else {
-            8 + bin_chunk.len() as u64
+            1.0
         };
-    let total_u32 = u32::try_from(total).map_err(|_| ExportError::TooLarge(total))?;
-    let mut out = Vec::with_capacity(total as usize);
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&total_u32.to_le_bytes());
-    out.extend_from_slice(&(json_chunk.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&json_chunk);
-    if !bin_chunk.is_empty() {
-        out.extend_from_slice(&(bin_chunk.len() as u32).to_le_bytes());
-        out.extend_from_slice(b"BIN\0");
-        out.extend_from_slice(&bin_chunk);
+        let material = doc.material(shell_name(s, shell.threshold), [r, g, b, alpha], 0.7);
+        roots.push(add_shell(doc, s, shell, shell_summary, material)?);
     }
-    Ok(out)
+    Ok(roots)
 }
 
+/// Shell `s`'s node and its bodies' nodes and meshes.
+fn add_shell(
+    doc: &mut Document,
+    s: usize,
+    shell: &Shell,
+    shell_summary: &ShellSummary,
+    material: Index<json::Material>,
+) -> Result<Index<json::Node>, ExportError> {
+    let mut children = Vec::with_capacity(shell.bodies.len());
+    for (i, (body, body_summary)) in shell.bodies.iter().zip(&shell_summary.bodies).enumerate() {
+        let figures = BodyExtras {
+            shell: s + 1,
+            body: i + 1,
+            threshold: shell.threshold,
+            volume: body_summary.volume,
+            area: body_summary.area,
+            closed: body_summary.closed,
+            truncated: body_summary.truncated,
+            mt_fallback: body_summary.mt_fallback,
+            bbox: &body_summary.bbox,
+        };
+        let name = body_name(s, shell.threshold, i);
+        children.push(add_body(doc, name, body, &figures, material)?);
+    }
+    let figures = ShellExtras {
+        shell: s + 1,
+        threshold: shell.threshold,
+        volume: shell_summary.volume,
+        area: shell_summary.area,
+        bodies: shell.bodies.len(),
+    };
+    Ok(doc.root.push(json::Node {
+        name: Some(shell_name(s, shell.threshold)),
+        children: Some(children),
+        extras: extras(&figures)?,
+        ..json::Node::default()
+    }))
+}
+
+/// A body's node, with its mesh of indexed triangles (positions, normals) unless it has no
+/// triangles: such a body keeps its node (and figures) but has nothing to draw.
+fn add_body(
+    doc: &mut Document,
+    name: String,
+    body: &Body,
+    figures: &BodyExtras<'_>,
+    material: Index<json::Material>,
+) -> Result<Index<json::Node>, ExportError> {
+    let indices: Vec<u32> = body.triangles.iter().flatten().copied().collect();
+    let mesh = if indices.is_empty() {
+        None
+    } else {
+        let positions: Vec<[f32; 3]> = body.positions.iter().map(|&p| to_gltf(p)).collect();
+        let normals: Vec<[f32; 3]> = vertex_normals(&body.positions, &body.triangles)
+            .into_iter()
+            .map(to_gltf)
+            .collect();
+        let position = doc.vec3(&positions, true);
+        let normal = doc.vec3(&normals, false);
+        let index = doc.indices(&indices);
+        let primitive = Primitive {
+            attributes: [
+                (Valid(Semantic::Positions), position),
+                (Valid(Semantic::Normals), normal),
+            ]
+            .into(),
+            indices: Some(index),
+            material: Some(material),
+            mode: Valid(Mode::Triangles),
+            targets: None,
+            extensions: None,
+            extras: None,
+        };
+        Some(doc.mesh(name.clone(), primitive, extras(figures)?))
+    };
+    Ok(doc.root.push(json::Node {
+        name: Some(name),
+        mesh,
+        extras: extras(figures)?,
+        ..json::Node::default()
+    }))
+}
+
+/// The `drill holes` node: one LINES primitive of every finite trace with two or more
+/// distinct stations; `None` when there is none.
+fn add_well_traces(
+    doc: &mut Document,
+    samples: &SampleSet,
+) -> Result<Option<Index<json::Node>>, ExportError> {
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    let mut ids = Vec::new();
+    for well in &samples.wells {
+        if well.trace.iter().any(|p| !p.is_finite()) {
+            continue;
+        }
+        // Repeated stations would make zero-length segments.
+        let mut trace: Vec<[f32; 3]> = well.trace.iter().map(|&p| to_gltf(p)).collect();
+        trace.dedup();
+        if trace.len() < 2 {
+            continue;
+        }
+        let first = positions.len() as u32;
+        for k in 1..trace.len() as u32 {
+            indices.extend([first + k - 1, first + k]);
+        }
+        positions.extend(trace);
+        ids.push(well.id.as_str());
+    }
+    if indices.is_empty() {
+        return Ok(None);
+    }
+    let name = "drill holes";
+    let material = doc.material(name.to_owned(), [0.6, 0.6, 0.55, 1.0], 1.0);
+    let position = doc.vec3(&positions, true);
+    let index = doc.indices(&indices);
+    let primitive = Primitive {
+        attributes: [(Valid(Semantic::Positions), position)].into(),
+        indices: Some(index),
+        material: Some(material),
+        mode: Valid(Mode::Lines),
+        targets: None,
+        extensions: None,
+        extras: None,
+    };
+    let mesh = doc.mesh(name.to_owned(), primitive, None);
+    Ok(Some(doc.root.push(json::Node {
+        name: Some(name.to_owned()),
+        mesh: Some(mesh),
+        extras: extras(&TraceExtras { wells: ids })?,
+        ..json::Node::default()
+    })))
+}
+
+/// The `samples` node: one POINTS primitive of every finite sample, coloured by its value;
+/// `None` when there is none.
+fn add_samples(
+    doc: &mut Document,
+    samples: &SampleSet,
+) -> Result<Option<Index<json::Node>>, ExportError> {
+    let known = samples
+        .values
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|v| v.is_finite());
+    let (min, max) = known.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+        (lo.min(v), hi.max(v))
+    });
+    let mut positions = Vec::new();
+    let mut colours = Vec::new();
+    for (p, v) in samples.points.iter().zip(&samples.values) {
+        if !p.is_finite() {
+            continue;
+        }
+        positions.push(to_gltf(*p));
+        colours.push(sample_colour(v.filter(|v| v.is_finite()), min, max));
+    }
+    if positions.is_empty() {
+        return Ok(None);
+    }
+    let name = "samples";
+    let material = doc.material(name.to_owned(), [1.0; 4], 1.0);
+    let position = doc.vec3(&positions, true);
+    let colour = doc.vec3(&colours, false);
+    let primitive = Primitive {
+        attributes: [
+            (Valid(Semantic::Positions), position),
+            (Valid(Semantic::Colors(0)), colour),
+        ]
+        .into(),
+        indices: None,
+        material: Some(material),
+        mode: Valid(Mode::Points),
+        targets: None,
+        extensions: None,
+        extras: None,
+    };
+    let mesh = doc.mesh(name.to_owned(), primitive, None);
+    let range = min <= max;
+    let figures = SampleExtras {
+        samples: positions.len(),
+        value_min: range.then_some(min),
+        value_max: range.then_some(max),
+    };
+    Ok(Some(doc.root.push(json::Node {
+        name: Some(name.to_owned()),
+        mesh: Some(mesh),
+        extras: extras(&figures)?,
+        ..json::Node::default()
+    })))
+}
+
+/// The one scene, holding the root `nodes`, with the georeference in its extras.
+fn add_scene(
+    doc: &mut Document,
+    summary: &Summary,
+    nodes: Vec<Index<json::Node>>,
+) -> Result<Index<json::Scene>, ExportError> {
+    let georeference = SceneExtras {
+        origin: summary.origin,
+        crs: &summary.crs,
+        unit: &summary.unit,
+        method: &summary.method,
+        axes: "x east, y up, z south (local, relative to origin)",
+    };
+    Ok(doc.root.push(json::Scene {
+        name: Some("wellmesh".to_owned()),
+        nodes,
+        extras: extras(&georeference)?,
+        extensions: None,
+    }))
+}
 #[cfg(test)]
 mod tests {
     use super::*;

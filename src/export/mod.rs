@@ -88,6 +88,9 @@ pub enum ExportError {
     Projection { crs: String, reason: String },
     #[error("JSON: {0}")]
     Json(#[from] serde_json::Error),
+    /// The GLB container could not be packed.
+    #[error("GLB: {0}")]
+    Glb(#[from] gltf::Error),
 }
 
 impl ExportError {
