@@ -71,7 +71,7 @@ def render(surface: Surface, out: Path, bearing: float, elevation: float, box,
     # Light from the camera's upper left.
     left = np.cross([0.0, 0.0, 1.0], to_camera)
     left /= np.linalg.norm(left) or 1.0
-    light = to_camera + 0.6 * np.array([0.0, 0.0, 1.0]) + 0.5 * left
+    light = 0.5 * to_camera + 0.8 * np.array([0.0, 0.0, 1.0]) + 0.7 * left
     light /= np.linalg.norm(light)
     cmap = matplotlib.colormaps["tab10"]
     triangles = 0
