@@ -41,9 +41,18 @@ impl Pipeline for TestPipeline {
             std::thread::sleep(Duration::from_millis(5));
         }
         if inputs.variable.as_deref() == Some("bad") {
-            return Err(JobFailure::Input(
-                "intervals_csv row 2: no such column \"bad\"".into(),
+            return Err(JobFailure::input_field(
+                "intervals_csv",
+                "intervals_csv row 2: no such column \"bad\"",
             ));
+        }
+        if inputs.variable.as_deref() == Some("internal") {
+            return Err(JobFailure::Internal(
+                "exporting the results: buffer 7 of /srv/secret out of range".into(),
+            ));
+        }
+        if inputs.variable.as_deref() == Some("panic") {
+            panic!("invariant broken at /srv/secret/tet.rs:12");
         }
         let summary =
             json!({"thresholds": inputs.thresholds.values(), "points": inputs.point_count()});
@@ -404,12 +413,40 @@ async fn a_failed_input_answers_422_with_the_reason() {
     let answer = app.execute(request, false).await;
 
     assert_eq!(answer.status, StatusCode::UNPROCESSABLE_ENTITY);
+    let problem = answer.json();
     assert!(
-        answer.json()["detail"]
+        problem["detail"]
             .as_str()
             .unwrap()
-            .contains("no such column")
+            .contains("no such column"),
+        "{problem}"
     );
+    assert_eq!(problem["field"], "intervals_csv");
+}
+
+#[tokio::test]
+async fn an_internal_failure_answers_500_naming_the_job_and_no_internals() {
+    let app = spawn_app(|_| {}, 1).await;
+    for variable in ["internal", "panic"] {
+        let mut request = small_request();
+        request["inputs"]["variable"] = json!(variable);
+
+        let answer = app.execute(request, false).await;
+
+        assert_eq!(answer.status, StatusCode::INTERNAL_SERVER_ERROR);
+        let newest = app.get("/jobs?limit=1").await.json();
+        let job_id = newest["jobs"][0]["jobID"].as_str().unwrap().to_string();
+        let problem = answer.json();
+        let detail = problem["detail"].as_str().unwrap();
+        assert!(detail.contains(&job_id), "{problem}");
+        assert!(detail.contains("internal error"), "{problem}");
+        let status = app.get(&format!("/jobs/{job_id}")).await.json();
+        let listed = String::from_utf8(app.get("/jobs").await.body).unwrap();
+        for text in [detail, status["message"].as_str().unwrap(), listed.as_str()] {
+            assert!(!text.contains("/srv/secret"), "internals leaked: {text}");
+        }
+        assert_eq!(status["status"], "failed");
+    }
 }
 
 #[tokio::test]

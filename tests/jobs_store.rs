@@ -77,7 +77,7 @@ store_suite!(
     the_queue_limit_refuses_submits_beyond_it,
     a_released_job_is_requeued_without_using_an_attempt,
     concurrent_claims_never_share_a_job,
-    failures_keep_their_kind_and_message,
+    failures_keep_their_kind_field_and_message,
 );
 
 fn output(id: &str, bytes: &[u8]) -> StoredOutput {
@@ -175,7 +175,7 @@ async fn an_expired_lease_is_requeued_and_the_old_worker_is_fenced_out(store: Ar
         .await
         .unwrap();
     let late_failure = store
-        .mark_failed(dead.lease, FailureKind::Input, "stale", 5_200)
+        .mark_failed(dead.lease, FailureKind::Input, None, "stale", 5_200)
         .await
         .unwrap();
 
@@ -410,7 +410,7 @@ async fn concurrent_claims_never_share_a_job(store: Arc<dyn JobStore>) {
     assert_eq!(unique, submitted);
 }
 
-async fn failures_keep_their_kind_and_message(store: Arc<dyn JobStore>) {
+async fn failures_keep_their_kind_field_and_message(store: Arc<dyn JobStore>) {
     let job = store.submit(b"1", 3, None, 0).await.unwrap();
     let claimed = store
         .claim_next_job("w1", 0, LEASE_MS)
@@ -422,6 +422,7 @@ async fn failures_keep_their_kind_and_message(store: Arc<dyn JobStore>) {
         .mark_failed(
             claimed.lease,
             FailureKind::Input,
+            Some("samples_csv"),
             "samples_csv row 3: bad x",
             90,
         )
@@ -433,6 +434,7 @@ async fn failures_keep_their_kind_and_message(store: Arc<dyn JobStore>) {
     assert_eq!(failed.state, JobState::Failed);
     assert_eq!(failed.failure, Some(FailureKind::Input));
     assert_eq!(failed.message, "samples_csv row 3: bad x");
+    assert_eq!(failed.failure_field.as_deref(), Some("samples_csv"));
     let counts = store.count_by_state().await.unwrap();
     assert_eq!(counts, vec![(JobState::Failed, 1)]);
 }

@@ -18,7 +18,7 @@ use super::AppState;
 use super::documents::{PROCESS_ID, StatusInfo, base_url, job_href};
 use super::jobs::results_for;
 use super::problem::Problem;
-use crate::jobs::{FailureKind, JobState, now_ms};
+use crate::jobs::{JobState, now_ms};
 use crate::process::ProcessInputs;
 
 /// The OGC execute request body.
@@ -197,17 +197,7 @@ pub async fn execute(
                 }
                 return Ok(response);
             }
-            JobState::Failed => {
-                let status = match current.failure {
-                    Some(FailureKind::Input) => StatusCode::UNPROCESSABLE_ENTITY,
-                    _ => StatusCode::INTERNAL_SERVER_ERROR,
-                };
-                return Err(Problem::new(
-                    status,
-                    "about:blank",
-                    format!("job {} failed: {}", current.id, current.message),
-                ));
-            }
+            JobState::Failed => return Err(Problem::job_failed(&current)),
             JobState::Dismissed => {
                 return Err(Problem::not_found(format!(
                     "job {} was dismissed before it finished",

@@ -23,20 +23,56 @@ use uuid::Uuid;
 
 pub use postgres::PostgresStore;
 pub use sqlite::SqliteStore;
-pub use worker::{JobMetrics, WorkerConfig, WorkerPool};
+pub use worker::{INTERNAL_FAILURE, JobMetrics, WorkerConfig, WorkerPool};
 
 /// Why a job produced no outputs.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum JobFailure {
-    /// The inputs could not be read or contoured; the message names the field or row.
-    #[error("{0}")]
-    Input(String),
+    /// The inputs could not be read or contoured; the message names the row, `field` the
+    /// input at fault where it is known.
+    #[error("{message}")]
+    Input {
+        field: Option<String>,
+        message: String,
+    },
     /// The job was dismissed, its lease was lost, or its time ran out.
     #[error("cancelled")]
     Cancelled,
     /// Something the user cannot fix.
     #[error("internal error: {0}")]
     Internal(String),
+}
+
+impl JobFailure {
+    /// An input failure without a known field.
+    pub fn input(message: impl Into<String>) -> Self {
+        JobFailure::Input {
+            field: None,
+            message: message.into(),
+        }
+    }
+
+    /// An input failure of the input named `field`.
+    pub fn input_field(field: impl Into<String>, message: impl Into<String>) -> Self {
+        JobFailure::Input {
+            field: Some(field.into()),
+            message: message.into(),
+        }
+    }
+}
+
+/// Longest message stored with a job or sent in an error, in bytes: an error that quotes
+/// the input it refused is cut here, so a bad 50 MB field is never stored or echoed back.
+pub const MAX_MESSAGE_BYTES: usize = 1024;
+
+/// `text` cut to at most [`MAX_MESSAGE_BYTES`] (at a character boundary), saying how much
+/// was cut.
+pub fn cap_message(text: &str) -> String {
+    if text.len() <= MAX_MESSAGE_BYTES {
+        return text.to_string();
+    }
+    let keep = text.floor_char_boundary(MAX_MESSAGE_BYTES - 40);
+    format!("{}... ({} more bytes)", &text[..keep], text.len() - keep)
 }
 
 /// Turns a job's stored inputs into its outputs. The service runs the `dmt-contour`
@@ -144,6 +180,8 @@ pub struct JobRecord {
     pub attempt: i64,
     pub max_attempts: i64,
     pub failure: Option<FailureKind>,
+    /// The input a failure of kind [`FailureKind::Input`] was about, where known.
+    pub failure_field: Option<String>,
     pub created_ms: i64,
     pub started_ms: Option<i64>,
     pub finished_ms: Option<i64>,
@@ -261,11 +299,13 @@ pub trait JobStore: Send + Sync + 'static {
         now_ms: i64,
     ) -> Result<bool, JobStoreError>;
 
-    /// Marks the job failed with a message. `Ok(false)`: the lease was lost.
+    /// Marks the job failed with a message (and the input at fault, where known).
+    /// `Ok(false)`: the lease was lost.
     async fn mark_failed(
         &self,
         lease: Lease,
         kind: FailureKind,
+        field: Option<&str>,
         message: &str,
         now_ms: i64,
     ) -> Result<bool, JobStoreError>;

@@ -21,7 +21,7 @@ use super::{
 static MIGRATOR: Migrator = sqlx::migrate!("migrations/postgres");
 
 const JOB_COLUMNS: &str = "id, state, message, progress, attempt, max_attempts, failure, \
-     created_ms, started_ms, finished_ms, updated_ms";
+     failure_field, created_ms, started_ms, finished_ms, updated_ms";
 
 /// PostgreSQL-backed [`JobStore`].
 #[derive(Debug, Clone)]
@@ -81,6 +81,7 @@ fn record(row: &PgRow) -> Result<JobRecord, JobStoreError> {
         failure: row
             .try_get::<Option<String>, _>("failure")?
             .map(|f| FailureKind::parse(&f)),
+        failure_field: row.try_get("failure_field")?,
         created_ms: row.try_get("created_ms")?,
         started_ms: row.try_get("started_ms")?,
         finished_ms: row.try_get("finished_ms")?,
@@ -254,12 +255,13 @@ impl JobStore for PostgresStore {
         &self,
         lease: Lease,
         kind: FailureKind,
+        field: Option<&str>,
         message: &str,
         now_ms: i64,
     ) -> Result<bool, JobStoreError> {
         let done = sqlx::query(
-            "UPDATE jobs SET state = 'failed', failure = $1, message = $2, finished_ms = $3,
-                updated_ms = $3, lease_owner = NULL, lease_expires_ms = NULL
+            "UPDATE jobs SET state = 'failed', failure = $1, failure_field = $6, message = $2,
+                finished_ms = $3, updated_ms = $3, lease_owner = NULL, lease_expires_ms = NULL
              WHERE id = $4 AND attempt = $5 AND state = 'running'",
         )
         .bind(kind.as_str())
@@ -267,6 +269,7 @@ impl JobStore for PostgresStore {
         .bind(now_ms)
         .bind(lease.job_id.to_string())
         .bind(lease.attempt)
+        .bind(field)
         .execute(&self.pool)
         .await?;
         Ok(done.rows_affected() == 1)

@@ -16,8 +16,13 @@ use tokio::sync::{Notify, oneshot, watch};
 use tokio::task::JoinHandle;
 use tracing::{Instrument, error, info, info_span, warn};
 
-use super::{FailureKind, JobFailure, JobStore, Lease, Pipeline, now_ms};
+use super::{FailureKind, JobFailure, JobStore, Lease, Pipeline, cap_message, now_ms};
 use crate::progress::{Progress, Stage};
+
+/// The message a job keeps when it failed for an internal reason; the cause itself is
+/// only logged, with the job id.
+pub const INTERNAL_FAILURE: &str =
+    "internal error while computing this job; the cause is logged with its job id";
 
 /// How a pool of workers behaves.
 #[derive(Debug, Clone)]
@@ -271,7 +276,7 @@ impl Worker {
                             "ran past the time limit of {} s",
                             self.config.time_limit.as_secs()
                         );
-                        self.finish_failed(lease, FailureKind::Timeout, &message, started).await;
+                        self.finish_failed(lease, FailureKind::Timeout, None, &message, started).await;
                         return;
                     }
                     let (percent, message) = tracker.snapshot();
@@ -321,26 +326,29 @@ impl Worker {
                     "ran past the time limit of {} s",
                     self.config.time_limit.as_secs()
                 );
-                self.finish_failed(lease, FailureKind::Timeout, &message, started)
+                self.finish_failed(lease, FailureKind::Timeout, None, &message, started)
                     .await;
             }
             Ok(Ok(Err(JobFailure::Cancelled))) => {
-                self.finish_failed(
+                self.finish_internal(
                     lease,
-                    FailureKind::Internal,
                     "the pipeline stopped without being asked to",
                     started,
                 )
                 .await;
             }
-            Ok(Ok(Err(JobFailure::Input(message)))) => {
-                self.finish_failed(lease, FailureKind::Input, &message, started)
-                    .await;
+            Ok(Ok(Err(JobFailure::Input { field, message }))) => {
+                self.finish_failed(
+                    lease,
+                    FailureKind::Input,
+                    field.as_deref(),
+                    &message,
+                    started,
+                )
+                .await;
             }
-            Ok(Ok(Err(JobFailure::Internal(message)))) => {
-                error!(%message, "job failed");
-                self.finish_failed(lease, FailureKind::Internal, &message, started)
-                    .await;
+            Ok(Ok(Err(JobFailure::Internal(cause)))) => {
+                self.finish_internal(lease, &cause, started).await;
             }
             Ok(Err(panic)) => {
                 let detail = panic
@@ -348,37 +356,47 @@ impl Worker {
                     .map(|s| s.to_string())
                     .or_else(|| panic.downcast_ref::<String>().cloned())
                     .unwrap_or_default();
-                error!(panic = %detail, "the pipeline panicked");
-                self.finish_failed(
-                    lease,
-                    FailureKind::Internal,
-                    "internal error while computing this job (logged on the worker)",
-                    started,
-                )
-                .await;
+                self.finish_internal(lease, &format!("the pipeline panicked: {detail}"), started)
+                    .await;
             }
             Err(_) => {
-                self.finish_failed(
-                    lease,
-                    FailureKind::Internal,
-                    "the computation ended without an answer",
-                    started,
-                )
-                .await;
+                self.finish_internal(lease, "the computation ended without an answer", started)
+                    .await;
             }
         }
     }
 
+    /// Records a failure the user cannot fix: the cause is logged (with the job id, from
+    /// the span), the job keeps only [`INTERNAL_FAILURE`].
+    async fn finish_internal(&self, lease: Lease, cause: &str, started: Instant) {
+        error!(%cause, "job failed: internal error");
+        self.finish_failed(
+            lease,
+            FailureKind::Internal,
+            None,
+            INTERNAL_FAILURE,
+            started,
+        )
+        .await;
+    }
+
+    /// Records a failure; the message is capped at [`super::MAX_MESSAGE_BYTES`].
     async fn finish_failed(
         &self,
         lease: Lease,
         kind: FailureKind,
+        field: Option<&str>,
         message: &str,
         started: Instant,
     ) {
-        match self.store.mark_failed(lease, kind, message, now_ms()).await {
+        let message = cap_message(message);
+        match self
+            .store
+            .mark_failed(lease, kind, field, &message, now_ms())
+            .await
+        {
             Ok(true) => {
-                info!(failure = kind.as_str(), %message, "job failed");
+                info!(failure = kind.as_str(), field, %message, "job failed");
                 self.metrics
                     .record("failed", started.elapsed().as_secs_f64());
             }

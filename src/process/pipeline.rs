@@ -4,8 +4,10 @@
 //! exactly what was submitted.
 
 use crate::contour::{self, ContourError};
+use crate::dmt::DmtError;
 use crate::export::{self, OutputOptions};
 use crate::progress::{Progress, Stage};
+use crate::tet::TetError;
 use crate::wells::{Input, SampleSet};
 
 use super::ProcessInputs;
@@ -31,18 +33,15 @@ impl ContourPipeline {
         progress: &dyn Progress,
     ) -> Result<Vec<StoredOutput>, JobFailure> {
         progress.report(Stage::Read, 0.0);
-        let samples = load_samples(&inputs.wells_input())?;
+        let samples = load_samples(&inputs.wells_input(), inputs)?;
         progress.report(Stage::Read, 1.0);
         if progress.is_cancelled() {
             return Err(JobFailure::Cancelled);
         }
         let request = inputs
             .contour_request(samples)
-            .map_err(|e| JobFailure::Input(e.to_string()))?;
-        let result = contour::run(&request, progress).map_err(|e| match e {
-            ContourError::Cancelled => JobFailure::Cancelled,
-            other => JobFailure::Input(other.to_string()),
-        })?;
+            .map_err(|e| JobFailure::input_field(e.field.clone(), e.to_string()))?;
+        let result = contour::run(&request, progress).map_err(contour_failure)?;
         if progress.is_cancelled() {
             return Err(JobFailure::Cancelled);
         }
@@ -68,6 +67,84 @@ impl ContourPipeline {
     }
 }
 
-fn load_samples(input: &Input) -> Result<SampleSet, JobFailure> {
-    input.load().map_err(|e| JobFailure::Input(e.to_string()))
+/// Reads the wells; a refusal names the input it came from (the readers' errors start with
+/// the file name, which is the input's name here).
+fn load_samples(input: &Input, inputs: &ProcessInputs) -> Result<SampleSet, JobFailure> {
+    input.load().map_err(|e| {
+        let message = e.to_string();
+        let given = [
+            ("wells", inputs.wells.is_some()),
+            ("samples_csv", inputs.samples_csv.is_some()),
+            ("collars_csv", inputs.collars_csv.is_some()),
+            ("surveys_csv", inputs.surveys_csv.is_some()),
+            ("intervals_csv", inputs.intervals_csv.is_some()),
+        ];
+        let named = given
+            .iter()
+            .find(|(name, is_given)| *is_given && message.starts_with(name))
+            .map(|(name, _)| *name);
+        match named {
+            Some(field) => JobFailure::input_field(field, message),
+            None => JobFailure::input(message),
+        }
+    })
+}
+
+/// The one place a contouring error is judged: cancellation, a broken invariant of the
+/// engine (an invalid mesh, values or thresholds the engine should never have been
+/// handed: `Internal`, answered 500), or input that cannot be contoured (`Input`, 422).
+fn contour_failure(error: ContourError) -> JobFailure {
+    match error {
+        ContourError::Cancelled
+        | ContourError::Tet(TetError::Cancelled)
+        | ContourError::Dmt(DmtError::Cancelled) => JobFailure::Cancelled,
+        ContourError::Tet(TetError::Invalid(_))
+        | ContourError::Dmt(
+            DmtError::ValueCount { .. } | DmtError::NonFinite(_) | DmtError::BadThreshold(_),
+        ) => JobFailure::Internal(error.to_string()),
+        ContourError::NoThresholds => JobFailure::input_field("thresholds", error.to_string()),
+        ContourError::NoKnownSamples { .. } | ContourError::Grid(_) | ContourError::Tet(_) => {
+            JobFailure::input(error.to_string())
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn broken_invariants_are_internal_and_bad_input_is_the_users() {
+        let internal = [
+            ContourError::Tet(TetError::Invalid("tet 3 faces itself".into())),
+            ContourError::Dmt(DmtError::ValueCount {
+                expected: 4,
+                got: 3,
+            }),
+            ContourError::Dmt(DmtError::NonFinite(2)),
+            ContourError::Dmt(DmtError::BadThreshold(f64::NAN)),
+        ];
+        for error in internal {
+            assert!(matches!(contour_failure(error), JobFailure::Internal(_)));
+        }
+        let input = [
+            ContourError::Tet(TetError::AllCoplanar),
+            ContourError::Tet(TetError::TooFewPoints { distinct: 3 }),
+            ContourError::NoKnownSamples { unknown: 9 },
+        ];
+        for error in input {
+            assert!(matches!(contour_failure(error), JobFailure::Input { .. }));
+        }
+        assert_eq!(
+            contour_failure(ContourError::NoThresholds),
+            JobFailure::input_field("thresholds", ContourError::NoThresholds.to_string())
+        );
+        for cancelled in [
+            ContourError::Cancelled,
+            ContourError::Tet(TetError::Cancelled),
+            ContourError::Dmt(DmtError::Cancelled),
+        ] {
+            assert_eq!(contour_failure(cancelled), JobFailure::Cancelled);
+        }
+    }
 }
