@@ -23,7 +23,7 @@ enum Command {
     /// Delaunay-tetrahedralize a point file and print `points N tets T seconds S`.
     Tetrahedralize(cli::tetrahedralize::Args),
     /// Serve OGC API - Processes with embedded workers (SQLite in --data-dir by default).
-    Serve(cli::serve::Args),
+    Serve(Box<cli::serve::Args>),
     /// Run workers only, against a shared job database.
     Worker(cli::worker::Args),
     /// Print the service's OpenAPI document.
@@ -37,7 +37,7 @@ fn main() -> ExitCode {
     let outcome = match cli.command {
         Command::Contour(args) => cli::contour::run(*args),
         Command::Tetrahedralize(args) => cli::tetrahedralize::run(args),
-        Command::Serve(args) => cli::serve::run(args),
+        Command::Serve(args) => cli::serve::run(*args),
         Command::Worker(args) => cli::worker::run(args),
         Command::Openapi(args) => cli::openapi::run(args),
         Command::Inspect(args) => cli::inspect::run(*args),

@@ -15,7 +15,7 @@ use hyper_util::client::legacy::connect::HttpConnector;
 use hyper_util::rt::TokioExecutor;
 use serde_json::{Value, json};
 use tokio::sync::oneshot;
-use wellmesh::api::{self, ApiConfig};
+use wellmesh::api::{self, ApiConfig, ApiKey};
 use wellmesh::jobs::{JobFailure, Pipeline, StoredOutput};
 use wellmesh::process::ProcessInputs;
 use wellmesh::progress::{Progress, Stage};
@@ -301,6 +301,18 @@ async fn a_small_job_runs_synchronously_and_returns_its_results() {
     assert_eq!(bytes.status, StatusCode::OK);
     assert_eq!(bytes.headers[header::CONTENT_TYPE], "model/gltf-binary");
     assert_eq!(bytes.body, b"glTF\x02\0\0\0");
+    assert_eq!(bytes.headers[header::ACCEPT_RANGES], "bytes");
+    let part = app
+        .send(
+            Request::get(href)
+                .header(header::RANGE, "bytes=4-")
+                .body(Body::empty())
+                .unwrap(),
+        )
+        .await;
+    assert_eq!(part.status, StatusCode::PARTIAL_CONTENT);
+    assert_eq!(part.headers[header::CONTENT_RANGE], "bytes 4-7/8");
+    assert_eq!(part.body, b"\x02\0\0\0");
 }
 
 #[tokio::test]
@@ -576,7 +588,7 @@ async fn a_full_queue_answers_429_with_retry_after() {
 
 #[tokio::test]
 async fn api_keys_guard_jobs_and_executions_when_configured() {
-    let app = spawn_app(|c| c.api_keys = vec!["s3cret".into()], 0).await;
+    let app = spawn_app(|c| c.api_keys = vec![ApiKey::new("s3cret")], 0).await;
 
     let anonymous = app.get("/jobs").await;
     let wrong = app
@@ -760,6 +772,187 @@ async fn the_viewer_is_served_from_its_directory_and_never_outside_it() {
     assert_ne!(encoded.status, StatusCode::OK);
     assert!(!String::from_utf8_lossy(&encoded.body).contains("TOP-SECRET"));
     assert!(!String::from_utf8_lossy(&escape.body).contains("TOP-SECRET"));
+}
+
+fn with_key(request: axum::http::request::Builder, key: &str) -> axum::http::request::Builder {
+    request.header(header::AUTHORIZATION, format!("Bearer {key}"))
+}
+
+#[tokio::test]
+async fn a_key_sees_only_its_own_jobs_and_an_admin_sees_all() {
+    let app = spawn_app(
+        |c| c.api_keys = vec![ApiKey::new("k1"), ApiKey::new("k2"), ApiKey::admin("root")],
+        0,
+    )
+    .await;
+    let submitted = app
+        .send(
+            with_key(Request::post("/processes/dmt-contour/execution"), "k1")
+                .header(header::CONTENT_TYPE, "application/json")
+                .header("Prefer", "respond-async")
+                .body(Body::from(small_request().to_string()))
+                .unwrap(),
+        )
+        .await;
+    assert_eq!(submitted.status, StatusCode::CREATED);
+    let job_id = submitted.json()["jobID"].as_str().unwrap().to_string();
+    let as_key = |key: &'static str, method: &'static str, path: String| {
+        let app = &app;
+        async move {
+            app.send(
+                with_key(Request::builder().method(method).uri(path), key)
+                    .body(Body::empty())
+                    .unwrap(),
+            )
+            .await
+        }
+    };
+
+    let other_list = as_key("k2", "GET", "/jobs".into()).await.json();
+    let other_status = as_key("k2", "GET", format!("/jobs/{job_id}")).await;
+    let other_results = as_key("k2", "GET", format!("/jobs/{job_id}/results")).await;
+    let other_delete = as_key("k2", "DELETE", format!("/jobs/{job_id}")).await;
+    let own_list = as_key("k1", "GET", "/jobs".into()).await.json();
+    let admin_list = as_key("root", "GET", "/jobs".into()).await.json();
+    let own_status = as_key("k1", "GET", format!("/jobs/{job_id}")).await;
+
+    assert_eq!(other_list["jobs"], json!([]));
+    assert_eq!(other_status.status, StatusCode::NOT_FOUND);
+    assert_eq!(other_results.status, StatusCode::NOT_FOUND);
+    assert_eq!(other_delete.status, StatusCode::NOT_FOUND);
+    assert_eq!(own_status.status, StatusCode::OK);
+    assert_eq!(own_list["jobs"][0]["jobID"], job_id.as_str());
+    assert_eq!(admin_list["jobs"][0]["jobID"], job_id.as_str());
+    let admin_delete = as_key("root", "DELETE", format!("/jobs/{job_id}")).await;
+    assert_eq!(admin_delete.status, StatusCode::OK);
+}
+
+/// A request claiming, through forwarded headers, to come from evil.example.
+fn forged(request: axum::http::request::Builder) -> axum::http::request::Builder {
+    request
+        .header(header::HOST, "wellmesh.test")
+        .header("X-Forwarded-Host", "evil.example")
+        .header("X-Forwarded-Proto", "https")
+}
+
+async fn submit_forged(app: &TestApp) -> Answer {
+    app.send(
+        forged(Request::post("/processes/dmt-contour/execution"))
+            .header(header::CONTENT_TYPE, "application/json")
+            .header("Prefer", "respond-async")
+            .body(Body::from(small_request().to_string()))
+            .unwrap(),
+    )
+    .await
+}
+
+#[tokio::test]
+async fn forwarded_headers_from_an_untrusted_peer_change_no_link() {
+    let app = spawn_app(|_| {}, 0).await;
+    let pinned = spawn_app(
+        |c| c.public_url = Some("https://mesh.example/api/".into()),
+        0,
+    )
+    .await;
+    let trusting = spawn_app(
+        |c| c.trusted_proxies = vec!["127.0.0.1".parse().unwrap()],
+        0,
+    )
+    .await;
+    let untrusted = submit_forged(&app).await;
+    let landing = app
+        .send(forged(Request::get("/")).body(Body::empty()).unwrap())
+        .await;
+    let public = submit_forged(&pinned).await;
+    let proxied = submit_forged(&trusting).await;
+
+    let location = |answer: &Answer| {
+        answer.headers[header::LOCATION]
+            .to_str()
+            .unwrap()
+            .to_string()
+    };
+    assert!(location(&untrusted).starts_with("http://wellmesh.test/jobs/"));
+    assert!(!String::from_utf8_lossy(&landing.body).contains("evil.example"));
+    assert!(location(&public).starts_with("https://mesh.example/api/jobs/"));
+    assert!(location(&proxied).starts_with("https://evil.example/jobs/"));
+}
+
+#[tokio::test]
+async fn a_huge_refused_input_is_never_echoed_back() {
+    let app = spawn_app(|_| {}, 0).await;
+    let huge = "m".repeat(5 * 1024 * 1024);
+
+    let answer = app
+        .execute(
+            json!({"inputs": {"samples_csv": "a", "thresholds": [1], "method": huge}}),
+            true,
+        )
+        .await;
+
+    assert_eq!(answer.status, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(
+        answer.body.len() < 2048,
+        "{} bytes answered",
+        answer.body.len()
+    );
+    assert_eq!(answer.json()["field"], "method");
+}
+
+#[tokio::test]
+async fn the_job_list_pages_with_next_links_and_filters_by_status() {
+    let app = spawn_app(|_| {}, 0).await;
+    let mut ids = Vec::new();
+    for _ in 0..3 {
+        let job = app.execute(small_request(), true).await.json();
+        ids.push(job["jobID"].as_str().unwrap().to_string());
+        tokio::time::sleep(Duration::from_millis(3)).await;
+    }
+    app.send(
+        Request::delete(format!("/jobs/{}", ids[2]))
+            .body(Body::empty())
+            .unwrap(),
+    )
+    .await;
+
+    let first = app.get("/jobs?limit=1").await.json();
+    let next = first["links"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|l| l["rel"] == "next")
+        .unwrap()["href"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let second = app.get(&next).await.json();
+    let failed = app.get("/jobs?status=failed").await.json();
+    let other = app.get("/jobs?processID=other").await.json();
+
+    assert_eq!(first["jobs"].as_array().unwrap().len(), 1);
+    assert_eq!(first["jobs"][0]["jobID"], ids[1].as_str());
+    assert_eq!(second["jobs"][0]["jobID"], ids[0].as_str());
+    assert_eq!(failed["jobs"], json!([]));
+    assert_eq!(other["jobs"], json!([]));
+}
+
+#[tokio::test]
+async fn metrics_show_the_storage_per_job() {
+    let app = spawn_app(|_| {}, 0).await;
+    app.execute(small_request(), true).await;
+
+    let text = String::from_utf8(app.get("/metrics").await.body).unwrap();
+
+    assert!(text.contains("wellmesh_store_jobs 1"), "{text}");
+    assert!(
+        text.contains("wellmesh_store_bytes{part=\"inputs\"}"),
+        "{text}"
+    );
+    assert!(
+        text.contains("wellmesh_store_job_bytes{stat=\"max\"}"),
+        "{text}"
+    );
+    assert!(text.contains("wellmesh_store_file_bytes"), "{text}");
 }
 
 #[test]

@@ -7,8 +7,8 @@ use std::collections::HashSet;
 use std::sync::Arc;
 
 use wellmesh::jobs::{
-    Dismissal, FailureKind, JobState, JobStore, JobStoreError, PostgresStore, SqliteStore,
-    StoredOutput,
+    Dismissal, FailureKind, JobQuery, JobState, JobStore, JobStoreError, ListPosition,
+    PostgresStore, SqliteStore, StoredOutput,
 };
 
 const LEASE_MS: i64 = 1_000;
@@ -78,6 +78,13 @@ store_suite!(
     a_released_job_is_requeued_without_using_an_attempt,
     concurrent_claims_never_share_a_job,
     failures_keep_their_kind_field_and_message,
+    a_listing_honours_its_limit_without_dismissed_jobs_and_pages_on,
+    a_listing_filters_by_state_and_owner,
+    inputs_are_stored_compressed_and_read_back_as_submitted,
+    dismissal_deletes_inputs_and_outputs_at_once,
+    the_retention_sweep_deletes_only_old_finished_jobs,
+    storage_counts_inputs_and_outputs_per_job,
+    concurrent_submits_never_pass_the_queue_limit,
 );
 
 fn output(id: &str, bytes: &[u8]) -> StoredOutput {
@@ -437,4 +444,201 @@ async fn failures_keep_their_kind_field_and_message(store: Arc<dyn JobStore>) {
     assert_eq!(failed.failure_field.as_deref(), Some("samples_csv"));
     let counts = store.count_by_state().await.unwrap();
     assert_eq!(counts, vec![(JobState::Failed, 1)]);
+}
+
+fn query(limit: i64) -> JobQuery {
+    JobQuery {
+        limit,
+        ..JobQuery::default()
+    }
+}
+
+async fn a_listing_honours_its_limit_without_dismissed_jobs_and_pages_on(store: Arc<dyn JobStore>) {
+    let mut ids = Vec::new();
+    for t in 0..5 {
+        ids.push(store.submit(b"1", 3, None, 1_000 + t).await.unwrap().id);
+    }
+    // The newest job is dismissed: a limit of 2 still answers 2 jobs.
+    store.request_dismissal(ids[4], 2_000).await.unwrap();
+
+    let first = store.list_jobs(&query(2)).await.unwrap();
+    let last = first.last().unwrap();
+    let second = store
+        .list_jobs(&JobQuery {
+            after: Some(ListPosition {
+                created_ms: last.created_ms,
+                id: last.id,
+            }),
+            ..query(2)
+        })
+        .await
+        .unwrap();
+
+    let names = |jobs: &[wellmesh::jobs::JobRecord]| jobs.iter().map(|j| j.id).collect::<Vec<_>>();
+    assert_eq!(names(&first), vec![ids[3], ids[2]]);
+    assert_eq!(names(&second), vec![ids[1], ids[0]]);
+}
+
+async fn a_listing_filters_by_state_and_owner(store: Arc<dyn JobStore>) {
+    let mine = store
+        .submit_owned(b"1", Some("key-a"), 3, None, 1)
+        .await
+        .unwrap();
+    let theirs = store
+        .submit_owned(b"2", Some("key-b"), 3, None, 2)
+        .await
+        .unwrap();
+    let claimed = store
+        .claim_next_job("w", 3, LEASE_MS)
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(claimed.lease.job_id, mine.id);
+
+    let owned = store
+        .list_jobs(&JobQuery {
+            owner: Some("key-b".into()),
+            ..query(10)
+        })
+        .await
+        .unwrap();
+    let running = store
+        .list_jobs(&JobQuery {
+            states: vec![JobState::Running],
+            ..query(10)
+        })
+        .await
+        .unwrap();
+
+    assert_eq!(owned.len(), 1);
+    assert_eq!(owned[0].id, theirs.id);
+    assert_eq!(owned[0].owner.as_deref(), Some("key-b"));
+    assert_eq!(running.len(), 1);
+    assert_eq!(running[0].id, mine.id);
+}
+
+async fn inputs_are_stored_compressed_and_read_back_as_submitted(store: Arc<dyn JobStore>) {
+    let inputs = "well,x,y,z,value\n".repeat(20_000).into_bytes();
+    let job = store.submit(&inputs, 3, None, 1).await.unwrap();
+
+    let stored = store.storage().await.unwrap();
+    let claimed = store
+        .claim_next_job("w", 2, LEASE_MS)
+        .await
+        .unwrap()
+        .unwrap();
+
+    assert!(
+        stored.input_bytes * 20 < inputs.len() as i64,
+        "{} bytes stored for {}",
+        stored.input_bytes,
+        inputs.len()
+    );
+    assert_eq!(claimed.inputs, inputs);
+    assert_eq!(store.inputs(job.id).await.unwrap().unwrap(), inputs);
+}
+
+async fn dismissal_deletes_inputs_and_outputs_at_once(store: Arc<dyn JobStore>) {
+    let job = store.submit(&[7u8; 10_000], 3, None, 1).await.unwrap();
+    let claimed = store
+        .claim_next_job("w", 2, LEASE_MS)
+        .await
+        .unwrap()
+        .unwrap();
+    store
+        .mark_succeeded(claimed.lease, &[output("glb", &[1u8; 5_000])], 3)
+        .await
+        .unwrap();
+    let before = store.storage().await.unwrap();
+
+    store.request_dismissal(job.id, 4).await.unwrap();
+
+    let after = store.storage().await.unwrap();
+    assert!(before.input_bytes > 0 && before.output_bytes == 5_000);
+    assert_eq!((after.input_bytes, after.output_bytes), (0, 0));
+    assert_eq!(store.inputs(job.id).await.unwrap().unwrap(), b"");
+}
+
+async fn the_retention_sweep_deletes_only_old_finished_jobs(store: Arc<dyn JobStore>) {
+    let old = store.submit(b"1", 3, None, 1).await.unwrap();
+    let claimed = store
+        .claim_next_job("w", 2, LEASE_MS)
+        .await
+        .unwrap()
+        .unwrap();
+    store
+        .mark_succeeded(claimed.lease, &[output("glb", b"x")], 10)
+        .await
+        .unwrap();
+    let dismissed = store.submit(b"2", 3, None, 3).await.unwrap();
+    store.request_dismissal(dismissed.id, 20).await.unwrap();
+    let recent = store.submit(b"3", 3, None, 4).await.unwrap();
+    let claimed = store
+        .claim_next_job("w", 5, LEASE_MS)
+        .await
+        .unwrap()
+        .unwrap();
+    store
+        .mark_succeeded(claimed.lease, &[output("glb", b"y")], 500)
+        .await
+        .unwrap();
+    let queued = store.submit(b"4", 3, None, 6).await.unwrap();
+
+    let deleted = store.delete_finished_before(100).await.unwrap();
+
+    assert_eq!(deleted, 2);
+    assert!(store.get(old.id).await.unwrap().is_none());
+    assert!(store.get(dismissed.id).await.unwrap().is_none());
+    assert!(store.output(old.id, "glb").await.unwrap().is_none());
+    assert!(store.get(recent.id).await.unwrap().is_some());
+    assert!(store.get(queued.id).await.unwrap().is_some());
+    assert_eq!(store.storage().await.unwrap().jobs, 2);
+}
+
+async fn storage_counts_inputs_and_outputs_per_job(store: Arc<dyn JobStore>) {
+    let job = store.submit(b"{}", 3, None, 1).await.unwrap();
+    let claimed = store
+        .claim_next_job("w", 2, LEASE_MS)
+        .await
+        .unwrap()
+        .unwrap();
+    store
+        .mark_succeeded(
+            claimed.lease,
+            &[
+                output("glb", &[0u8; 3_000]),
+                output("summary", &[0u8; 1_000]),
+            ],
+            3,
+        )
+        .await
+        .unwrap();
+    store.submit(b"{}", 3, None, 4).await.unwrap();
+
+    let storage = store.storage().await.unwrap();
+
+    assert_eq!(storage.jobs, 2);
+    assert_eq!(storage.output_bytes, 4_000);
+    let inputs = storage.input_bytes / 2;
+    assert_eq!(storage.largest_job_bytes, 4_000 + inputs);
+    assert!(store.get(job.id).await.unwrap().is_some());
+}
+
+async fn concurrent_submits_never_pass_the_queue_limit(store: Arc<dyn JobStore>) {
+    let submits = (0..32).map(|i| {
+        let store = store.clone();
+        tokio::spawn(async move { store.submit(b"1", 3, Some(10), i).await })
+    });
+    let mut accepted = 0;
+    let mut refused = 0;
+    for submit in submits {
+        match submit.await.unwrap() {
+            Ok(_) => accepted += 1,
+            Err(JobStoreError::QueueFull { .. }) => refused += 1,
+            Err(e) => panic!("{e}"),
+        }
+    }
+    assert_eq!((accepted, refused), (10, 22));
+    let counts = store.count_by_state().await.unwrap();
+    assert_eq!(counts, vec![(JobState::Accepted, 10)]);
 }

@@ -3,11 +3,17 @@
 //! Invariant: hrefs are absolute paths on this server (`/jobs/{id}/results/glb`), so a
 //! document stays valid behind any host name or reverse proxy.
 
+use std::net::{IpAddr, SocketAddr};
 use std::time::{Duration, UNIX_EPOCH};
+
+use axum::extract::{ConnectInfo, FromRequestParts};
+use axum::http::HeaderMap;
+use axum::http::request::Parts;
 
 use serde::Serialize;
 use utoipa::ToSchema;
 
+use super::{ApiConfig, AppState};
 use crate::jobs::{JobRecord, JobState, OutputInfo};
 pub use crate::process::{
     InputDescription, Link, OutputDescription, PROCESS_ID, ProcessDescription, ProcessSummary,
@@ -82,10 +88,14 @@ fn rfc3339(ms: i64) -> String {
     humantime::format_rfc3339_millis(time).to_string()
 }
 
-/// `scheme://host` of this server as the client reached it (`X-Forwarded-Proto` and
-/// `X-Forwarded-Host` from a reverse proxy win over `Host`); empty when unknown, which
-/// leaves links as absolute paths.
-pub fn base_url(headers: &axum::http::HeaderMap) -> String {
+/// `scheme://host` of this server as the client reached it: the configured public URL;
+/// else `Host`, or `X-Forwarded-Host` and `X-Forwarded-Proto` when the request comes from
+/// a configured trusted proxy (from anyone else they are ignored); empty when unknown,
+/// which leaves links as absolute paths.
+pub fn base_url(config: &ApiConfig, headers: &HeaderMap, peer: Option<IpAddr>) -> String {
+    if let Some(public) = &config.public_url {
+        return public.trim_end_matches('/').to_string();
+    }
     let header = |name: &str| {
         headers
             .get(name)
@@ -98,14 +108,34 @@ pub fn base_url(headers: &axum::http::HeaderMap) -> String {
                         .all(|c| c.is_ascii_alphanumeric() || "-.:[]_".contains(c))
             })
     };
-    let Some(host) = header("x-forwarded-host").or_else(|| header("host")) else {
+    let trusted = peer.is_some_and(|peer| config.trusted_proxies.contains(&peer));
+    let forwarded = |name: &str| if trusted { header(name) } else { None };
+    let Some(host) = forwarded("x-forwarded-host").or_else(|| header("host")) else {
         return String::new();
     };
-    let scheme = match header("x-forwarded-proto") {
+    let scheme = match forwarded("x-forwarded-proto") {
         Some("https") => "https",
         _ => "http",
     };
     format!("{scheme}://{host}")
+}
+
+/// The base of a request's absolute links ([`base_url`] with the peer's address).
+pub struct BaseUrl(pub String);
+
+impl FromRequestParts<AppState> for BaseUrl {
+    type Rejection = std::convert::Infallible;
+
+    async fn from_request_parts(
+        parts: &mut Parts,
+        state: &AppState,
+    ) -> Result<Self, Self::Rejection> {
+        let peer = parts
+            .extensions
+            .get::<ConnectInfo<SocketAddr>>()
+            .map(|info| info.0.ip());
+        Ok(BaseUrl(base_url(&state.config, &parts.headers, peer)))
+    }
 }
 
 pub fn job_href(id: &uuid::Uuid) -> String {

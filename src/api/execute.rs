@@ -6,16 +6,18 @@
 
 use std::time::{Duration, Instant};
 
-use axum::Json;
 use axum::body::Bytes;
 use axum::extract::{FromRequest, Multipart, Path, Request, State};
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
+use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
+use axum::{Extension, Json};
 use serde::Deserialize;
 use serde_json::{Map, Value};
 
 use super::AppState;
-use super::documents::{PROCESS_ID, StatusInfo, base_url, job_href};
+use super::auth::Principal;
+use super::documents::{BaseUrl, PROCESS_ID, StatusInfo, job_href};
 use super::jobs::results_for;
 use super::problem::Problem;
 use crate::jobs::{JobState, now_ms};
@@ -120,6 +122,8 @@ pub struct MultipartInputs {
 pub async fn execute(
     State(state): State<AppState>,
     Path(process_id): Path<String>,
+    BaseUrl(base): BaseUrl,
+    Extension(principal): Extension<Principal>,
     headers: HeaderMap,
     request: Request,
 ) -> Result<Response, Problem> {
@@ -144,7 +148,13 @@ pub async fn execute(
                 Problem::bad_request(e.body_text())
             }
         })?;
-        inputs_from_json(&body)?
+        // A large body is parsed on a blocking thread, not on the request threads.
+        tokio::task::spawn_blocking(move || inputs_from_json(&body))
+            .await
+            .map_err(|e| {
+                tracing::error!(error = %e, "parsing the body ended abnormally");
+                Problem::internal()
+            })??
     } else {
         return Err(Problem::new(
             StatusCode::UNSUPPORTED_MEDIA_TYPE,
@@ -161,8 +171,9 @@ pub async fn execute(
     })?;
     let job = state
         .store
-        .submit(
+        .submit_owned(
             &stored,
+            principal.owner(),
             state.config.max_attempts,
             state.config.max_queued,
             now_ms(),
@@ -176,7 +187,7 @@ pub async fn execute(
         .filter_map(|v| v.to_str().ok())
         .any(|v| v.to_ascii_lowercase().contains("respond-async"));
     if prefers_async || inputs.point_count() > state.config.sync_max_points {
-        return Ok(accepted(&job, prefers_async, &headers));
+        return Ok(accepted(&job, prefers_async, &base));
     }
     // Synchronous: wait for a worker (here or on another node) to finish the job.
     let deadline = Instant::now() + state.config.sync_wait;
@@ -191,7 +202,7 @@ pub async fn execute(
             JobState::Successful => {
                 let document = results_for(&state, &current).await?;
                 let mut response = Json(document).into_response();
-                let location = format!("{}{}", base_url(&headers), job_href(&job.id));
+                let location = format!("{base}{}", job_href(&job.id));
                 if let Ok(location) = HeaderValue::from_str(&location) {
                     response.headers_mut().insert(header::LOCATION, location);
                 }
@@ -207,20 +218,53 @@ pub async fn execute(
             JobState::Accepted | JobState::Running => {}
         }
         if Instant::now() >= deadline {
-            return Ok(accepted(&current, false, &headers));
+            return Ok(accepted(&current, false, &base));
         }
         tokio::time::sleep(pause).await;
         pause = (pause * 2).min(Duration::from_millis(250));
     }
 }
 
-fn accepted(
-    job: &crate::jobs::JobRecord,
-    preference_applied: bool,
-    request_headers: &HeaderMap,
+/// Lets at most `max_large_uploads` executions with a large body (by `Content-Length`,
+/// or of unknown length) be read at once; another answers 429 with `Retry-After` at once
+/// rather than holding its body in memory too.
+pub async fn limit_large_uploads(
+    State(state): State<AppState>,
+    request: Request,
+    next: Next,
 ) -> Response {
+    let length = request
+        .headers()
+        .get(header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.parse::<usize>().ok());
+    if length.is_some_and(|l| l <= state.config.large_body_bytes) {
+        return next.run(request).await;
+    }
+    if length.is_some_and(|l| l > state.config.max_body_bytes) {
+        return Problem::too_large(state.config.max_body_bytes).into_response();
+    }
+    let Ok(_permit) = state.uploads.clone().try_acquire_owned() else {
+        let mut problem = Problem::new(
+            StatusCode::TOO_MANY_REQUESTS,
+            "about:blank",
+            format!(
+                "{} large uploads are being read, this server's limit; retry later",
+                state.config.max_large_uploads
+            ),
+        );
+        problem.retry_after_s = Some(UPLOAD_RETRY_AFTER_S);
+        return problem.into_response();
+    };
+    next.run(request).await
+}
+
+/// Seconds a client refused for too many concurrent large uploads is told to wait.
+const UPLOAD_RETRY_AFTER_S: u64 = 2;
+
+fn accepted(job: &crate::jobs::JobRecord, preference_applied: bool, base: &str) -> Response {
     let mut response = (StatusCode::CREATED, Json(StatusInfo::from_record(job))).into_response();
-    let location = format!("{}{}", base_url(request_headers), job_href(&job.id));
+    let location = format!("{base}{}", job_href(&job.id));
     let headers = response.headers_mut();
     if let Ok(location) = HeaderValue::from_str(&location) {
         headers.insert(header::LOCATION, location);

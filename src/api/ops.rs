@@ -1,22 +1,20 @@
-//! Operations endpoints (`/healthz`, `/readyz`, `/metrics`), bearer API keys and the
-//! JSON answers for unknown routes and methods.
+//! Operations endpoints (`/healthz`, `/readyz`, `/metrics`) and the JSON answers for
+//! unknown routes and methods.
 //!
-//! Invariant: API keys are compared in constant time, and every configured key is
-//! compared on every request, so timing tells nothing about which key nearly matched.
+//! Invariant: `/healthz` touches nothing but the process; `/readyz` answers within
+//! [`READY_TIMEOUT`] whatever the database does.
 
 use std::fmt::Write as _;
 
 use axum::Json;
 use axum::extract::{Request, State};
 use axum::http::{HeaderValue, StatusCode, header};
-use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use serde::Serialize;
-use subtle::ConstantTimeEq;
 
 use super::AppState;
 use super::problem::Problem;
-use crate::jobs::JobState;
+use crate::jobs::{JobState, StorageUse};
 
 /// `{"status": "ok"}`.
 #[derive(Debug, Serialize, utoipa::ToSchema)]
@@ -33,6 +31,9 @@ pub async fn healthz() -> Json<Health> {
     })
 }
 
+/// Longest `/readyz` waits for the database.
+pub const READY_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(2);
+
 /// The job database answers.
 #[utoipa::path(get, path = "/readyz", tag = "Operations",
     responses(
@@ -40,7 +41,15 @@ pub async fn healthz() -> Json<Health> {
         (status = 503, description = "The job database is not answering", body = Problem, content_type = "application/problem+json"),
     ))]
 pub async fn readyz(State(state): State<AppState>) -> Result<Json<Health>, Problem> {
-    state.store.ping().await?;
+    match tokio::time::timeout(READY_TIMEOUT, state.store.ping()).await {
+        Ok(answer) => answer?,
+        Err(_) => {
+            return Err(Problem::unavailable(format!(
+                "the job database did not answer within {} s",
+                READY_TIMEOUT.as_secs()
+            )));
+        }
+    }
     Ok(Json(Health {
         status: "ready".to_string(),
     }))
@@ -77,6 +86,8 @@ pub async fn metrics(State(state): State<AppState>) -> Result<Response, Problem>
     );
     let _ = writeln!(text, "# TYPE wellmesh_queue_depth gauge");
     let _ = writeln!(text, "wellmesh_queue_depth {}", count(JobState::Accepted));
+    let storage = state.store.storage().await?;
+    render_storage(&mut text, &storage);
     state.metrics.render(&mut text);
     let mut response = text.into_response();
     response.headers_mut().insert(
@@ -84,49 +95,6 @@ pub async fn metrics(State(state): State<AppState>) -> Result<Response, Problem>
         HeaderValue::from_static("text/plain; version=0.0.4; charset=utf-8"),
     );
     Ok(response)
-}
-
-/// `true` when `presented` equals one of `keys`, comparing all of them in constant time.
-pub fn key_matches(keys: &[String], presented: &str) -> bool {
-    keys.iter().fold(false, |found, key| {
-        found | bool::from(key.as_bytes().ct_eq(presented.as_bytes()))
-    })
-}
-
-/// Rejects requests without a valid `Authorization: Bearer KEY` when keys are set.
-pub async fn require_api_key(
-    State(state): State<AppState>,
-    request: Request,
-    next: Next,
-) -> Response {
-    let keys = &state.config.api_keys;
-    if keys.is_empty() || request.method() == axum::http::Method::OPTIONS {
-        return next.run(request).await;
-    }
-    let presented = request
-        .headers()
-        .get(header::AUTHORIZATION)
-        .and_then(|v| v.to_str().ok())
-        .and_then(|v| {
-            v.strip_prefix("Bearer ")
-                .or_else(|| v.strip_prefix("bearer "))
-        })
-        .map(str::trim);
-    match presented {
-        Some(key) if key_matches(keys, key) => next.run(request).await,
-        _ => {
-            let mut response = Problem::new(
-                StatusCode::UNAUTHORIZED,
-                "about:blank",
-                "send a valid API key as `Authorization: Bearer KEY`",
-            )
-            .into_response();
-            response
-                .headers_mut()
-                .insert(header::WWW_AUTHENTICATE, HeaderValue::from_static("Bearer"));
-            response
-        }
-    }
 }
 
 pub async fn not_found(request: Request) -> Problem {
@@ -145,18 +113,51 @@ pub async fn method_not_allowed(request: Request) -> Problem {
     )
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn keys_match_exactly() {
-        let keys = vec!["alpha".to_string(), "beta-key".to_string()];
-        assert!(key_matches(&keys, "beta-key"));
-        assert!(key_matches(&keys, "alpha"));
-        assert!(!key_matches(&keys, "beta"));
-        assert!(!key_matches(&keys, "alphaa"));
-        assert!(!key_matches(&keys, ""));
-        assert!(!key_matches(&[], "alpha"));
+/// The store's disk use: totals, per job (mean and largest) and the file's size.
+fn render_storage(text: &mut String, storage: &StorageUse) {
+    let _ = writeln!(
+        text,
+        "# HELP wellmesh_store_bytes Bytes the job store holds, by part (inputs compressed)."
+    );
+    let _ = writeln!(text, "# TYPE wellmesh_store_bytes gauge");
+    let _ = writeln!(
+        text,
+        "wellmesh_store_bytes{{part=\"inputs\"}} {}",
+        storage.input_bytes
+    );
+    let _ = writeln!(
+        text,
+        "wellmesh_store_bytes{{part=\"outputs\"}} {}",
+        storage.output_bytes
+    );
+    let _ = writeln!(
+        text,
+        "# HELP wellmesh_store_jobs Jobs stored, in every state."
+    );
+    let _ = writeln!(text, "# TYPE wellmesh_store_jobs gauge");
+    let _ = writeln!(text, "wellmesh_store_jobs {}", storage.jobs);
+    let mean = if storage.jobs > 0 {
+        (storage.input_bytes + storage.output_bytes) as f64 / storage.jobs as f64
+    } else {
+        0.0
+    };
+    let _ = writeln!(
+        text,
+        "# HELP wellmesh_store_job_bytes Bytes stored per job (inputs and outputs): mean and largest."
+    );
+    let _ = writeln!(text, "# TYPE wellmesh_store_job_bytes gauge");
+    let _ = writeln!(text, "wellmesh_store_job_bytes{{stat=\"mean\"}} {mean:.0}");
+    let _ = writeln!(
+        text,
+        "wellmesh_store_job_bytes{{stat=\"max\"}} {}",
+        storage.largest_job_bytes
+    );
+    if let Some(bytes) = storage.file_bytes {
+        let _ = writeln!(
+            text,
+            "# HELP wellmesh_store_file_bytes Size of the SQLite database file."
+        );
+        let _ = writeln!(text, "# TYPE wellmesh_store_file_bytes gauge");
+        let _ = writeln!(text, "wellmesh_store_file_bytes {bytes}");
     }
 }

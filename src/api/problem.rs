@@ -201,6 +201,7 @@ mod tests {
             max_attempts: 3,
             failure: kind,
             failure_field: field.map(str::to_string),
+            owner: None,
             created_ms: 0,
             started_ms: Some(1),
             finished_ms: Some(2),

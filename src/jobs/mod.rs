@@ -182,6 +182,8 @@ pub struct JobRecord {
     pub failure: Option<FailureKind>,
     /// The input a failure of kind [`FailureKind::Input`] was about, where known.
     pub failure_field: Option<String>,
+    /// The principal (API key) that submitted the job; `None` without keys.
+    pub owner: Option<String>,
     pub created_ms: i64,
     pub started_ms: Option<i64>,
     pub finished_ms: Option<i64>,
@@ -231,6 +233,41 @@ pub enum Dismissal {
     NotFound,
 }
 
+/// Which jobs a listing asks for, newest first. Dismissed jobs are never listed.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct JobQuery {
+    /// Most jobs answered.
+    pub limit: i64,
+    /// Only jobs after this one in the listing's order (the last job of the page before).
+    pub after: Option<ListPosition>,
+    /// Only jobs in these states; empty: every state but `dismissed`.
+    pub states: Vec<JobState>,
+    /// Only this principal's jobs; `None`: everyone's.
+    pub owner: Option<String>,
+}
+
+/// A job's place in the listing order (`created_ms` descending, then `id` ascending).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ListPosition {
+    pub created_ms: i64,
+    pub id: Uuid,
+}
+
+/// What the store holds, for `/metrics`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StorageUse {
+    /// Jobs stored, in every state.
+    pub jobs: i64,
+    /// Bytes of stored inputs (compressed where they are).
+    pub input_bytes: i64,
+    /// Bytes of stored outputs.
+    pub output_bytes: i64,
+    /// Inputs plus outputs of the job holding the most.
+    pub largest_job_bytes: i64,
+    /// Size of the database file where the store can tell (SQLite), else `None`.
+    pub file_bytes: Option<i64>,
+}
+
 /// A job's figure in the store, grouped by state.
 pub type StateCounts = Vec<(JobState, i64)>;
 
@@ -255,10 +292,25 @@ pub enum JobStoreError {
 /// the clock) so tests can move time; production callers pass [`now_ms`].
 #[async_trait]
 pub trait JobStore: Send + Sync + 'static {
-    /// Queues a job unless `max_queued` jobs are already waiting.
+    /// Queues a job without an owner unless `max_queued` jobs are already waiting.
     async fn submit(
         &self,
         inputs: &[u8],
+        max_attempts: i64,
+        max_queued: Option<i64>,
+        now_ms: i64,
+    ) -> Result<JobRecord, JobStoreError> {
+        self.submit_owned(inputs, None, max_attempts, max_queued, now_ms)
+            .await
+    }
+
+    /// Queues a job owned by `owner` unless `max_queued` jobs are already waiting; the
+    /// count and the insert are one atomic step, so concurrent submits never pass the
+    /// limit. The inputs are stored compressed.
+    async fn submit_owned(
+        &self,
+        inputs: &[u8],
+        owner: Option<&str>,
         max_attempts: i64,
         max_queued: Option<i64>,
         now_ms: i64,
@@ -266,8 +318,19 @@ pub trait JobStore: Send + Sync + 'static {
 
     async fn get(&self, id: Uuid) -> Result<Option<JobRecord>, JobStoreError>;
 
-    /// The newest `limit` jobs, newest first.
+    /// The newest `limit` jobs, newest first, in every state.
     async fn list(&self, limit: i64) -> Result<Vec<JobRecord>, JobStoreError>;
+
+    /// The jobs `query` asks for, newest first; never dismissed ones.
+    async fn list_jobs(&self, query: &JobQuery) -> Result<Vec<JobRecord>, JobStoreError>;
+
+    /// Deletes finished jobs (successful, failed, dismissed) that finished before
+    /// `finished_before_ms`, with their inputs and outputs, and gives the space back
+    /// (SQLite: an incremental vacuum). Returns the number of jobs deleted.
+    async fn delete_finished_before(&self, finished_before_ms: i64) -> Result<u64, JobStoreError>;
+
+    /// What the store holds.
+    async fn storage(&self) -> Result<StorageUse, JobStoreError>;
 
     /// Re-queues jobs whose lease expired (or fails them once they reach the attempt
     /// limit), then claims the oldest accepted job for `worker`, holding it until
@@ -315,7 +378,8 @@ pub trait JobStore: Send + Sync + 'static {
     async fn release(&self, lease: Lease, now_ms: i64) -> Result<bool, JobStoreError>;
 
     /// Dismisses a job in any state: queued jobs never run, running jobs lose their
-    /// lease (their worker stops at its next heartbeat), finished jobs lose their outputs.
+    /// lease (their worker stops at its next heartbeat); its inputs and outputs are
+    /// deleted at once (the row stays, so a late worker write is fenced out).
     async fn request_dismissal(&self, id: Uuid, now_ms: i64) -> Result<Dismissal, JobStoreError>;
 
     async fn inputs(&self, id: Uuid) -> Result<Option<Vec<u8>>, JobStoreError>;
@@ -333,6 +397,55 @@ pub trait JobStore: Send + Sync + 'static {
 
     /// Answers when the database does.
     async fn ping(&self) -> Result<(), JobStoreError>;
+}
+
+/// Inputs as stored: gzip, the encoding named in the `inputs_encoding` column.
+pub(crate) const INPUTS_ENCODING: &str = "gzip";
+
+/// Compresses submitted inputs for storage (off the async threads: inputs may be tens of
+/// megabytes).
+pub(crate) async fn encode_inputs(inputs: &[u8]) -> Result<Vec<u8>, JobStoreError> {
+    use std::io::Write as _;
+    let inputs = inputs.to_vec();
+    tokio::task::spawn_blocking(move || {
+        let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        encoder.write_all(&inputs)?;
+        encoder.finish()
+    })
+    .await
+    .map_err(|e| JobStoreError::Corrupt(format!("compressing inputs: {e}")))?
+    .map_err(|e| JobStoreError::Corrupt(format!("compressing inputs: {e}")))
+}
+
+/// The submitted bytes of inputs stored with `encoding`.
+pub(crate) async fn decode_inputs(
+    stored: Vec<u8>,
+    encoding: &str,
+) -> Result<Vec<u8>, JobStoreError> {
+    use std::io::Read as _;
+    match encoding {
+        "identity" => Ok(stored),
+        INPUTS_ENCODING => tokio::task::spawn_blocking(move || {
+            let mut inputs = Vec::new();
+            flate2::read::GzDecoder::new(stored.as_slice()).read_to_end(&mut inputs)?;
+            Ok::<_, std::io::Error>(inputs)
+        })
+        .await
+        .map_err(|e| JobStoreError::Corrupt(format!("decompressing inputs: {e}")))?
+        .map_err(|e| JobStoreError::Corrupt(format!("decompressing inputs: {e}"))),
+        other => Err(JobStoreError::Corrupt(format!(
+            "unknown inputs encoding {other:?}"
+        ))),
+    }
+}
+
+/// `states` as the comma-separated list the stores' listing queries take.
+pub(crate) fn state_list(states: &[JobState]) -> String {
+    states
+        .iter()
+        .map(|s| s.as_str())
+        .collect::<Vec<_>>()
+        .join(",")
 }
 
 /// Milliseconds since the Unix epoch, the clock every store write uses.

@@ -13,15 +13,24 @@ use sqlx::{Connection, Row};
 use uuid::Uuid;
 
 use super::{
-    ClaimedJob, Dismissal, FailureKind, JobRecord, JobState, JobStore, JobStoreError, Lease,
-    OutputInfo, StateCounts, StoredOutput,
+    ClaimedJob, Dismissal, FailureKind, INPUTS_ENCODING, JobQuery, JobRecord, JobState, JobStore,
+    JobStoreError, Lease, OutputInfo, StateCounts, StorageUse, StoredOutput, decode_inputs,
+    encode_inputs, state_list,
 };
 
 /// The schema's versioned migrations (`migrations/postgres/`), embedded in the binary.
 static MIGRATOR: Migrator = sqlx::migrate!("migrations/postgres");
 
+/// Longest wait for a pooled connection (or a new one) before a request fails with 503.
+const ACQUIRE_TIMEOUT: Duration = Duration::from_secs(2);
+/// Longest any one statement may run on the server.
+const STATEMENT_TIMEOUT: Duration = Duration::from_secs(30);
+
+/// The advisory lock submits with a queue limit take in turn.
+const QUEUE_LIMIT_LOCK: i64 = 7_236_002;
+
 const JOB_COLUMNS: &str = "id, state, message, progress, attempt, max_attempts, failure, \
-     failure_field, created_ms, started_ms, finished_ms, updated_ms";
+     failure_field, owner, created_ms, started_ms, finished_ms, updated_ms";
 
 /// PostgreSQL-backed [`JobStore`].
 #[derive(Debug, Clone)]
@@ -59,9 +68,15 @@ impl PostgresStore {
         let mut migrating = PgConnection::connect_with(&options).await?;
         MIGRATOR.run_direct(&mut migrating).await?;
         migrating.close().await?;
+        // A dead database shows within ACQUIRE_TIMEOUT (a new connection is refused, or
+        // none frees up), and a hung statement ends after STATEMENT_TIMEOUT.
+        let options = options.options([(
+            "statement_timeout",
+            STATEMENT_TIMEOUT.as_millis().to_string(),
+        )]);
         let pool = PgPoolOptions::new()
             .max_connections(8)
-            .acquire_timeout(Duration::from_secs(10))
+            .acquire_timeout(ACQUIRE_TIMEOUT)
             .connect_with(options)
             .await?;
         Ok(PostgresStore { pool })
@@ -82,6 +97,7 @@ fn record(row: &PgRow) -> Result<JobRecord, JobStoreError> {
             .try_get::<Option<String>, _>("failure")?
             .map(|f| FailureKind::parse(&f)),
         failure_field: row.try_get("failure_field")?,
+        owner: row.try_get("owner")?,
         created_ms: row.try_get("created_ms")?,
         started_ms: row.try_get("started_ms")?,
         finished_ms: row.try_get("finished_ms")?,
@@ -91,33 +107,50 @@ fn record(row: &PgRow) -> Result<JobRecord, JobStoreError> {
 
 #[async_trait]
 impl JobStore for PostgresStore {
-    async fn submit(
+    async fn submit_owned(
         &self,
         inputs: &[u8],
+        owner: Option<&str>,
         max_attempts: i64,
         max_queued: Option<i64>,
         now_ms: i64,
     ) -> Result<JobRecord, JobStoreError> {
+        let stored = encode_inputs(inputs).await?;
         let id = Uuid::new_v4();
+        let mut tx = self.pool.begin().await?;
+        if max_queued.is_some() {
+            // Under READ COMMITTED two submits could both count 99 and both insert:
+            // submits with a limit take turns (the lock ends with the transaction).
+            sqlx::query("SELECT pg_advisory_xact_lock($1)")
+                .bind(QUEUE_LIMIT_LOCK)
+                .execute(&mut *tx)
+                .await?;
+        }
         let inserted = sqlx::query(
-            "INSERT INTO jobs (id, state, message, inputs, max_attempts, created_ms, updated_ms)
-             SELECT $1, 'accepted', 'queued', $2, $3, $4, $4
-             WHERE $5 IS NULL OR (SELECT count(*) FROM jobs WHERE state = 'accepted') < $5",
+            "INSERT INTO jobs (id, state, message, inputs, inputs_encoding, owner, max_attempts,
+                created_ms, updated_ms)
+             SELECT $1, 'accepted', 'queued', $2, $6, $7, $3, $4, $4
+             WHERE $5::BIGINT IS NULL
+                OR (SELECT count(*) FROM jobs WHERE state = 'accepted') < $5",
         )
         .bind(id.to_string())
-        .bind(inputs)
+        .bind(&stored)
         .bind(max_attempts)
         .bind(now_ms)
         .bind(max_queued)
-        .execute(&self.pool)
+        .bind(INPUTS_ENCODING)
+        .bind(owner)
+        .execute(&mut *tx)
         .await?;
         if inserted.rows_affected() == 0 {
             let queued: i64 =
                 sqlx::query_scalar("SELECT count(*) FROM jobs WHERE state = 'accepted'")
-                    .fetch_one(&self.pool)
+                    .fetch_one(&mut *tx)
                     .await?;
+            tx.rollback().await?;
             return Err(JobStoreError::QueueFull { queued });
         }
+        tx.commit().await?;
         self.get(id)
             .await?
             .ok_or_else(|| JobStoreError::Corrupt(format!("job {id} vanished after insert")))
@@ -139,6 +172,65 @@ impl JobStore for PostgresStore {
         .fetch_all(&self.pool)
         .await?;
         rows.iter().map(record).collect()
+    }
+
+    async fn list_jobs(&self, query: &JobQuery) -> Result<Vec<JobRecord>, JobStoreError> {
+        let rows = sqlx::query(&format!(
+            "SELECT {JOB_COLUMNS} FROM jobs
+             WHERE state != 'dismissed'
+               AND ($2 = '' OR state = ANY(string_to_array($2, ',')))
+               AND ($3::TEXT IS NULL OR owner = $3)
+               AND ($4::BIGINT IS NULL OR created_ms < $4 OR (created_ms = $4 AND id > $5))
+             ORDER BY created_ms DESC, id LIMIT $1"
+        ))
+        .bind(query.limit)
+        .bind(state_list(&query.states))
+        .bind(query.owner.as_deref())
+        .bind(query.after.map(|p| p.created_ms))
+        .bind(query.after.map(|p| p.id.to_string()))
+        .fetch_all(&self.pool)
+        .await?;
+        rows.iter().map(record).collect()
+    }
+
+    async fn delete_finished_before(&self, finished_before_ms: i64) -> Result<u64, JobStoreError> {
+        // Rows are deleted; autovacuum makes their space reusable.
+        let deleted = sqlx::query(
+            "DELETE FROM jobs WHERE state IN ('successful', 'failed', 'dismissed')
+                AND finished_ms < $1",
+        )
+        .bind(finished_before_ms)
+        .execute(&self.pool)
+        .await?
+        .rows_affected();
+        Ok(deleted)
+    }
+
+    async fn storage(&self) -> Result<StorageUse, JobStoreError> {
+        let (jobs, input_bytes): (i64, i64) = sqlx::query_as(
+            "SELECT count(*), coalesce(sum(octet_length(inputs)), 0)::BIGINT FROM jobs",
+        )
+        .fetch_one(&self.pool)
+        .await?;
+        let output_bytes: i64 = sqlx::query_scalar(
+            "SELECT coalesce(sum(octet_length(bytes)), 0)::BIGINT FROM job_outputs",
+        )
+        .fetch_one(&self.pool)
+        .await?;
+        let largest_job_bytes: i64 = sqlx::query_scalar(
+            "SELECT coalesce(max(octet_length(j.inputs) + coalesce(
+                (SELECT sum(octet_length(o.bytes)) FROM job_outputs o WHERE o.job_id = j.id), 0)), 0)::BIGINT
+             FROM jobs j",
+        )
+        .fetch_one(&self.pool)
+        .await?;
+        Ok(StorageUse {
+            jobs,
+            input_bytes,
+            output_bytes,
+            largest_job_bytes,
+            file_bytes: None,
+        })
     }
 
     async fn claim_next_job(
@@ -167,7 +259,7 @@ impl JobStore for PostgresStore {
                 progress = 0, message = 'started'
              WHERE id = (SELECT id FROM jobs WHERE state = 'accepted'
                          ORDER BY created_ms, id LIMIT 1 FOR UPDATE SKIP LOCKED)
-             RETURNING id, attempt, inputs",
+             RETURNING id, attempt, inputs, inputs_encoding",
         )
         .bind(worker)
         .bind(now_ms + lease_ms)
@@ -182,7 +274,11 @@ impl JobStore for PostgresStore {
                     .map_err(|e| JobStoreError::Corrupt(format!("job id {id:?}: {e}")))?,
                 attempt: row.try_get("attempt")?,
             },
-            inputs: row.try_get("inputs")?,
+            inputs: decode_inputs(
+                row.try_get("inputs")?,
+                &row.try_get::<String, _>("inputs_encoding")?,
+            )
+            .await?,
         }))
     }
 
@@ -293,7 +389,8 @@ impl JobStore for PostgresStore {
     async fn request_dismissal(&self, id: Uuid, now_ms: i64) -> Result<Dismissal, JobStoreError> {
         let mut tx = self.pool.begin().await?;
         let done = sqlx::query(
-            "UPDATE jobs SET state = 'dismissed', message = 'dismissed',
+            "UPDATE jobs SET state = 'dismissed', message = 'dismissed', inputs = ''::BYTEA,
+                inputs_encoding = 'identity',
                 finished_ms = coalesce(finished_ms, $1), updated_ms = $1,
                 lease_owner = NULL, lease_expires_ms = NULL
              WHERE id = $2",
@@ -320,10 +417,15 @@ impl JobStore for PostgresStore {
     }
 
     async fn inputs(&self, id: Uuid) -> Result<Option<Vec<u8>>, JobStoreError> {
-        Ok(sqlx::query_scalar("SELECT inputs FROM jobs WHERE id = $1")
-            .bind(id.to_string())
-            .fetch_optional(&self.pool)
-            .await?)
+        let row: Option<(Vec<u8>, String)> =
+            sqlx::query_as("SELECT inputs, inputs_encoding FROM jobs WHERE id = $1")
+                .bind(id.to_string())
+                .fetch_optional(&self.pool)
+                .await?;
+        match row {
+            Some((stored, encoding)) => Ok(Some(decode_inputs(stored, &encoding).await?)),
+            None => Ok(None),
+        }
     }
 
     async fn outputs(&self, id: Uuid) -> Result<Vec<OutputInfo>, JobStoreError> {

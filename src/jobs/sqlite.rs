@@ -8,20 +8,26 @@ use std::time::Duration;
 
 use async_trait::async_trait;
 use sqlx::migrate::Migrator;
-use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions};
+use sqlx::sqlite::{
+    SqliteAutoVacuum, SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions,
+};
 use sqlx::{Row, sqlite::SqliteRow};
 use uuid::Uuid;
 
 use super::{
-    ClaimedJob, Dismissal, FailureKind, JobRecord, JobState, JobStore, JobStoreError, Lease,
-    OutputInfo, StateCounts, StoredOutput,
+    ClaimedJob, Dismissal, FailureKind, INPUTS_ENCODING, JobQuery, JobRecord, JobState, JobStore,
+    JobStoreError, Lease, OutputInfo, StateCounts, StorageUse, StoredOutput, decode_inputs,
+    encode_inputs, state_list,
 };
 
 /// The schema's versioned migrations (`migrations/sqlite/`), embedded in the binary.
 static MIGRATOR: Migrator = sqlx::migrate!("migrations/sqlite");
 
+/// `PRAGMA auto_vacuum`'s answer for incremental auto-vacuum.
+const INCREMENTAL_VACUUM: i64 = 2;
+
 const JOB_COLUMNS: &str = "id, state, message, progress, attempt, max_attempts, failure, \
-     failure_field, created_ms, started_ms, finished_ms, updated_ms";
+     failure_field, owner, created_ms, started_ms, finished_ms, updated_ms";
 
 /// SQLite-backed [`JobStore`].
 #[derive(Debug, Clone)]
@@ -37,12 +43,27 @@ impl SqliteStore {
             .create_if_missing(true)
             .journal_mode(SqliteJournalMode::Wal)
             .busy_timeout(Duration::from_secs(10))
-            .foreign_keys(true);
+            .foreign_keys(true)
+            .auto_vacuum(SqliteAutoVacuum::Incremental);
         let pool = SqlitePoolOptions::new()
             .max_connections(4)
             .connect_with(options)
             .await?;
         MIGRATOR.run(&pool).await?;
+        // The retention sweep gives freed pages back with `PRAGMA incremental_vacuum`,
+        // which needs incremental auto-vacuum. A new file gets it from the connect option
+        // before its first table; a file made before is converted once here (a VACUUM,
+        // which cannot run inside a migration's transaction).
+        let mode: i64 = sqlx::query_scalar("PRAGMA auto_vacuum")
+            .fetch_one(&pool)
+            .await?;
+        if mode != INCREMENTAL_VACUUM {
+            let mut connection = pool.acquire().await?;
+            sqlx::query("PRAGMA auto_vacuum = INCREMENTAL")
+                .execute(&mut *connection)
+                .await?;
+            sqlx::query("VACUUM").execute(&mut *connection).await?;
+        }
         Ok(SqliteStore { pool })
     }
 }
@@ -61,6 +82,7 @@ fn record(row: &SqliteRow) -> Result<JobRecord, JobStoreError> {
             .try_get::<Option<String>, _>("failure")?
             .map(|f| FailureKind::parse(&f)),
         failure_field: row.try_get("failure_field")?,
+        owner: row.try_get("owner")?,
         created_ms: row.try_get("created_ms")?,
         started_ms: row.try_get("started_ms")?,
         finished_ms: row.try_get("finished_ms")?,
@@ -70,24 +92,30 @@ fn record(row: &SqliteRow) -> Result<JobRecord, JobStoreError> {
 
 #[async_trait]
 impl JobStore for SqliteStore {
-    async fn submit(
+    async fn submit_owned(
         &self,
         inputs: &[u8],
+        owner: Option<&str>,
         max_attempts: i64,
         max_queued: Option<i64>,
         now_ms: i64,
     ) -> Result<JobRecord, JobStoreError> {
+        let stored = encode_inputs(inputs).await?;
         let id = Uuid::new_v4();
+        // One statement counts and inserts: SQLite runs it under its write lock.
         let inserted = sqlx::query(
-            "INSERT INTO jobs (id, state, message, inputs, max_attempts, created_ms, updated_ms)
-             SELECT ?1, 'accepted', 'queued', ?2, ?3, ?4, ?4
+            "INSERT INTO jobs (id, state, message, inputs, inputs_encoding, owner, max_attempts,
+                created_ms, updated_ms)
+             SELECT ?1, 'accepted', 'queued', ?2, ?6, ?7, ?3, ?4, ?4
              WHERE ?5 IS NULL OR (SELECT count(*) FROM jobs WHERE state = 'accepted') < ?5",
         )
         .bind(id.to_string())
-        .bind(inputs)
+        .bind(&stored)
         .bind(max_attempts)
         .bind(now_ms)
         .bind(max_queued)
+        .bind(INPUTS_ENCODING)
+        .bind(owner)
         .execute(&self.pool)
         .await?;
         if inserted.rows_affected() == 0 {
@@ -120,6 +148,76 @@ impl JobStore for SqliteStore {
         rows.iter().map(record).collect()
     }
 
+    async fn list_jobs(&self, query: &JobQuery) -> Result<Vec<JobRecord>, JobStoreError> {
+        let rows = sqlx::query(&format!(
+            "SELECT {JOB_COLUMNS} FROM jobs
+             WHERE ((?2 = '' AND state != 'dismissed') OR (state != 'dismissed' AND instr(',' || ?2 || ',', ',' || state || ',') > 0))
+               AND (?3 IS NULL OR owner = ?3)
+               AND (?4 IS NULL OR created_ms < ?4 OR (created_ms = ?4 AND id > ?5))
+             ORDER BY created_ms DESC, id LIMIT ?1"
+        ))
+        .bind(query.limit)
+        .bind(state_list(&query.states))
+        .bind(query.owner.as_deref())
+        .bind(query.after.map(|p| p.created_ms))
+        .bind(query.after.map(|p| p.id.to_string()))
+        .fetch_all(&self.pool)
+        .await?;
+        rows.iter().map(record).collect()
+    }
+
+    async fn delete_finished_before(&self, finished_before_ms: i64) -> Result<u64, JobStoreError> {
+        let deleted = sqlx::query(
+            "DELETE FROM jobs WHERE state IN ('successful', 'failed', 'dismissed')
+                AND finished_ms < ?1",
+        )
+        .bind(finished_before_ms)
+        .execute(&self.pool)
+        .await?
+        .rows_affected();
+        if deleted > 0 {
+            // Free pages go back to the file system, and the WAL file is emptied.
+            sqlx::query("PRAGMA incremental_vacuum")
+                .execute(&self.pool)
+                .await?;
+            sqlx::query("PRAGMA wal_checkpoint(TRUNCATE)")
+                .execute(&self.pool)
+                .await?;
+        }
+        Ok(deleted)
+    }
+
+    async fn storage(&self) -> Result<StorageUse, JobStoreError> {
+        let (jobs, input_bytes): (i64, i64) =
+            sqlx::query_as("SELECT count(*), coalesce(sum(length(inputs)), 0) FROM jobs")
+                .fetch_one(&self.pool)
+                .await?;
+        let output_bytes: i64 =
+            sqlx::query_scalar("SELECT coalesce(sum(length(bytes)), 0) FROM job_outputs")
+                .fetch_one(&self.pool)
+                .await?;
+        let largest_job_bytes: i64 = sqlx::query_scalar(
+            "SELECT coalesce(max(length(j.inputs) + coalesce(
+                (SELECT sum(length(o.bytes)) FROM job_outputs o WHERE o.job_id = j.id), 0)), 0)
+             FROM jobs j",
+        )
+        .fetch_one(&self.pool)
+        .await?;
+        let pages: i64 = sqlx::query_scalar("PRAGMA page_count")
+            .fetch_one(&self.pool)
+            .await?;
+        let page_size: i64 = sqlx::query_scalar("PRAGMA page_size")
+            .fetch_one(&self.pool)
+            .await?;
+        Ok(StorageUse {
+            jobs,
+            input_bytes,
+            output_bytes,
+            largest_job_bytes,
+            file_bytes: Some(pages * page_size),
+        })
+    }
+
     async fn claim_next_job(
         &self,
         worker: &str,
@@ -146,7 +244,7 @@ impl JobStore for SqliteStore {
                 progress = 0, message = 'started'
              WHERE id = (SELECT id FROM jobs WHERE state = 'accepted'
                          ORDER BY created_ms, id LIMIT 1)
-             RETURNING id, attempt, inputs",
+             RETURNING id, attempt, inputs, inputs_encoding",
         )
         .bind(worker)
         .bind(now_ms + lease_ms)
@@ -161,7 +259,11 @@ impl JobStore for SqliteStore {
                     .map_err(|e| JobStoreError::Corrupt(format!("job id {id:?}: {e}")))?,
                 attempt: row.try_get("attempt")?,
             },
-            inputs: row.try_get("inputs")?,
+            inputs: decode_inputs(
+                row.try_get("inputs")?,
+                &row.try_get::<String, _>("inputs_encoding")?,
+            )
+            .await?,
         }))
     }
 
@@ -272,7 +374,8 @@ impl JobStore for SqliteStore {
     async fn request_dismissal(&self, id: Uuid, now_ms: i64) -> Result<Dismissal, JobStoreError> {
         let mut tx = self.pool.begin().await?;
         let done = sqlx::query(
-            "UPDATE jobs SET state = 'dismissed', message = 'dismissed',
+            "UPDATE jobs SET state = 'dismissed', message = 'dismissed', inputs = X'',
+                inputs_encoding = 'identity',
                 finished_ms = coalesce(finished_ms, ?1), updated_ms = ?1,
                 lease_owner = NULL, lease_expires_ms = NULL
              WHERE id = ?2",
@@ -299,10 +402,15 @@ impl JobStore for SqliteStore {
     }
 
     async fn inputs(&self, id: Uuid) -> Result<Option<Vec<u8>>, JobStoreError> {
-        Ok(sqlx::query_scalar("SELECT inputs FROM jobs WHERE id = ?1")
-            .bind(id.to_string())
-            .fetch_optional(&self.pool)
-            .await?)
+        let row: Option<(Vec<u8>, String)> =
+            sqlx::query_as("SELECT inputs, inputs_encoding FROM jobs WHERE id = ?1")
+                .bind(id.to_string())
+                .fetch_optional(&self.pool)
+                .await?;
+        match row {
+            Some((stored, encoding)) => Ok(Some(decode_inputs(stored, &encoding).await?)),
+            None => Ok(None),
+        }
     }
 
     async fn outputs(&self, id: Uuid) -> Result<Vec<OutputInfo>, JobStoreError> {

@@ -7,12 +7,14 @@
 //! (the bound address is known before the first request). Stopping stops accepting
 //! work first, then lets running jobs finish within the grace period or re-queues them.
 
+mod edge;
 mod settings;
 mod telemetry;
 
 use std::future::Future;
 use std::net::SocketAddr;
 use std::sync::Arc;
+use std::time::Duration;
 
 use anyhow::Context;
 use tokio::net::TcpListener;
@@ -22,7 +24,7 @@ use crate::api::{self, AppState};
 use crate::jobs::{self, JobMetrics, JobStore, Pipeline, WorkerConfig, WorkerPool};
 use crate::process::ContourPipeline;
 
-pub use settings::{LogFormat, Settings, redact_url};
+pub use settings::{EdgeLimits, LogFormat, Settings, redact_url};
 pub use telemetry::init_telemetry;
 
 /// The HTTP API over the job store, with `settings.worker.concurrency` embedded workers.
@@ -33,6 +35,8 @@ pub struct Application {
     pipeline: Arc<dyn Pipeline>,
     worker: WorkerConfig,
     store_url: String,
+    edge: EdgeLimits,
+    retention: Option<Duration>,
 }
 
 impl Application {
@@ -53,12 +57,7 @@ impl Application {
             .await
             .with_context(|| format!("binding {}", settings.bind))?;
         let address = listener.local_addr().context("reading the bound address")?;
-        let state = AppState {
-            store,
-            config: Arc::new(settings.api),
-            wake: Arc::new(Notify::new()),
-            metrics: Arc::new(JobMetrics::default()),
-        };
+        let state = AppState::new(store, settings.api);
         Ok(Application {
             listener,
             address,
@@ -66,6 +65,8 @@ impl Application {
             pipeline,
             worker: settings.worker,
             store_url: redact_url(&store_url),
+            edge: settings.edge,
+            retention: settings.retention,
         })
     }
 
@@ -90,7 +91,8 @@ impl Application {
 
     /// Serves until `stop` resolves, then stops accepting connections, lets requests in
     /// flight finish, and stops the workers (their running jobs finish within the grace
-    /// period or go back to the queue).
+    /// period or go back to the queue). Connections still open after the shutdown
+    /// deadline are dropped.
     pub async fn run_until(
         self,
         stop: impl Future<Output = ()> + Send + 'static,
@@ -102,6 +104,8 @@ impl Application {
             pipeline,
             worker,
             store_url,
+            edge,
+            retention,
         } = self;
         let workers = worker.concurrency;
         let pool = (workers > 0).then(|| {
@@ -113,18 +117,22 @@ impl Application {
                 state.metrics.clone(),
             )
         });
+        let (stopping, stopped) = watch::channel(false);
+        if let Some(retention) = retention {
+            tokio::spawn(sweep_finished_jobs(
+                state.store.clone(),
+                retention,
+                stopped.clone(),
+            ));
+        }
         let app = api::router(state);
         tracing::info!(%address, workers, store = %store_url, "wellmesh serving");
-        let (stopping, stopped) = watch::channel(false);
         tokio::spawn(async move {
             stop.await;
             tracing::info!("shutting down: finishing or re-queueing running jobs");
             let _ = stopping.send(true);
         });
-        let mut server_stopped = stopped.clone();
-        let server = axum::serve(listener, app).with_graceful_shutdown(async move {
-            let _ = server_stopped.wait_for(|s| *s).await;
-        });
+        let server = edge::serve(listener, app, edge, stopped.clone());
         let mut workers_stopped = stopped;
         let workers = async move {
             let _ = workers_stopped.wait_for(|s| *s).await;
@@ -132,11 +140,42 @@ impl Application {
                 pool.shutdown().await;
             }
         };
-        let (served, ()) = tokio::join!(server, workers);
-        served.context("serving HTTP")?;
+        tokio::join!(server, workers);
         tracing::info!("stopped");
         Ok(())
     }
+}
+
+/// Deletes finished jobs older than `retention`, at start and then every
+/// [`sweep_period`] of it, until `stopped`.
+async fn sweep_finished_jobs(
+    store: Arc<dyn JobStore>,
+    retention: Duration,
+    mut stopped: watch::Receiver<bool>,
+) {
+    let period = sweep_period(retention);
+    loop {
+        let cutoff = jobs::now_ms() - retention.as_millis() as i64;
+        match store.delete_finished_before(cutoff).await {
+            Ok(0) => {}
+            Ok(deleted) => tracing::info!(deleted, "retention sweep deleted finished jobs"),
+            Err(e) => tracing::warn!(error = %e, "retention sweep failed; will retry"),
+        }
+        tokio::select! {
+            _ = tokio::time::sleep(period) => {}
+            _ = until_stopped(&mut stopped) => return,
+        }
+    }
+}
+
+/// Resolves once `stopped` turns true (or its sender is gone).
+async fn until_stopped(stopped: &mut watch::Receiver<bool>) {
+    let _ = stopped.wait_for(|s| *s).await;
+}
+
+/// A tenth of the retention period, between 1 s and 10 minutes.
+fn sweep_period(retention: Duration) -> Duration {
+    (retention / 10).clamp(Duration::from_secs(1), Duration::from_secs(600))
 }
 
 /// Workers only: claims jobs from a shared store until stopped.

@@ -8,6 +8,7 @@
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
+use std::time::Duration;
 
 use anyhow::Context;
 
@@ -56,6 +57,29 @@ pub struct Settings {
     /// The workers' timings; `worker.concurrency` 0 serves the API only.
     pub worker: WorkerConfig,
     pub log_format: LogFormat,
+    /// Limits on connections and shutdown.
+    pub edge: EdgeLimits,
+    /// Finished jobs older than this are deleted with their inputs and outputs by a
+    /// background sweep; `None` keeps them forever.
+    pub retention: Option<Duration>,
+}
+
+/// Limits at the HTTP edge: what one slow or hostile client can hold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EdgeLimits {
+    /// A connection whose request headers have not all arrived by then is closed.
+    pub header_read_timeout: Duration,
+    /// After SIGTERM, connections still open by then are dropped and the process ends.
+    pub shutdown_deadline: Duration,
+}
+
+impl Default for EdgeLimits {
+    fn default() -> Self {
+        EdgeLimits {
+            header_read_timeout: Duration::from_secs(10),
+            shutdown_deadline: Duration::from_secs(30),
+        }
+    }
 }
 
 impl Default for Settings {
@@ -67,6 +91,8 @@ impl Default for Settings {
             api: ApiConfig::default(),
             worker: WorkerConfig::default(),
             log_format: LogFormat::Text,
+            edge: EdgeLimits::default(),
+            retention: Some(Duration::from_secs(3 * 24 * 3600)),
         }
     }
 }
