@@ -22,6 +22,7 @@ pub mod grid;
 pub mod jobs;
 pub mod process;
 pub mod progress;
+pub mod report;
 pub mod startup;
 pub mod tet;
 pub mod wells;

@@ -185,6 +185,7 @@ fn result(shells: Vec<(f64, Vec<Body>)>, crs: Option<&str>) -> ContourResult {
                         (b.bbox[0] + origin).to_array(),
                         (b.bbox[1] + origin).to_array(),
                     ],
+                    resource: None,
                 })
                 .collect(),
             counts: ShellCounts::default(),
@@ -192,6 +193,7 @@ fn result(shells: Vec<(f64, Vec<Body>)>, crs: Option<&str>) -> ContourResult {
             filtered_bodies: 0,
             filtered_volume: 0.0,
             volume_range: None,
+            resource: None,
         })
         .collect();
     let summary = Summary {
@@ -204,6 +206,7 @@ fn result(shells: Vec<(f64, Vec<Body>)>, crs: Option<&str>) -> ContourResult {
         binary: false,
         counts: serde_json::Map::new(),
         shells: shell_summaries,
+        report: None,
         warnings: Vec::new(),
     };
     ContourResult {

@@ -18,6 +18,8 @@ const viewer = {
   meshes: 0,
   job: null,
   status: null,
+  // The grade–tonnage chart's natural size once drawn (null when the job has none).
+  chart: null,
 };
 window.wellmeshViewer = viewer;
 
@@ -190,6 +192,7 @@ async function openJob(id) {
     const gltf = await new GLTFLoader().loadAsync(href);
     if (token !== openToken) return;
     showModel(gltf, results.summary ?? null);
+    await showChart(results.chart?.href ?? null);
   } catch (err) {
     if (token === openToken) fail(err.message ?? String(err));
   }
@@ -279,6 +282,30 @@ function buildLayers(root) {
   $('layers').hidden = root.children.length === 0;
 }
 
+// The job's grade–tonnage chart (SVG) beside the bodies; resolves once it is drawn.
+async function showChart(href) {
+  const section = $('chart');
+  const image = $('chart-image');
+  if (!href) {
+    section.hidden = true;
+    viewer.chart = null;
+    return;
+  }
+  image.src = href;
+  $('chart-link').href = href;
+  section.hidden = false;
+  await image.decode();
+  viewer.chart = { width: image.naturalWidth, height: image.naturalHeight };
+}
+
+// Tonnes and grade of a body or shell from its `resource` (the summary's report).
+function resourceCells(resource, units) {
+  if (!resource) return ['', ''];
+  const tonnes = resource.tonnes == null ? '–' : `${formatNumber(resource.tonnes)} ${units?.tonnes ?? 't'}`;
+  const grade = resource.mean_grade == null ? '–' : `${formatNumber(resource.mean_grade)} ${units?.grade ?? ''}`;
+  return [tonnes, grade];
+}
+
 function buildLegend(summary, root) {
   const rows = $('legend-rows');
   rows.replaceChildren();
@@ -310,6 +337,7 @@ function buildLegend(summary, root) {
       cell(`${shell.bodies.length}`),
       cell(`${formatNumber(shell.volume)} ${unit}³`),
       cell(`${formatNumber(shell.area)} ${unit}²`),
+      ...resourceCells(shell.resource, summary.report?.units).map(cell),
       cell(''),
     );
     rows.append(head);
@@ -335,6 +363,7 @@ function buildLegend(summary, root) {
         cell(`${b + 1}`),
         cell(`${formatNumber(body.volume)} ${unit}³`),
         cell(`${formatNumber(body.area)} ${unit}²`),
+        ...resourceCells(body.resource, summary.report?.units).map(cell),
         cell(flags),
       );
       rows.append(row);

@@ -348,7 +348,7 @@ pub async fn results_for(
 #[utoipa::path(get, path = "/jobs/{job_id}/results", tag = "Jobs",
     params(("job_id" = String, Path, description = "Job id")),
     responses(
-        (status = 200, description = "Results document: `summary` inline; `glb`, `tileset`, `geojson`, `obj`, `vtu` as {href, type}", body = Object),
+        (status = 200, description = "Results document: `summary` inline; `glb`, `tileset`, `geojson`, `obj`, `vtu`, `report` (grade–tonnage CSV), `chart` (its SVG) as {href, type}", body = Object),
         (status = 401, description = "Missing or wrong API key", body = Problem, content_type = "application/problem+json"),
         (status = 404, description = "No such job, or result-not-ready", body = Problem, content_type = "application/problem+json"),
         (status = 503, description = "The job database is not answering", body = Problem, content_type = "application/problem+json"),
@@ -370,14 +370,14 @@ pub async fn get_results(
 #[utoipa::path(get, path = "/jobs/{job_id}/results/{output_id}", tag = "Jobs",
     params(
         ("job_id" = String, Path, description = "Job id"),
-        ("output_id" = String, Path, description = "glb, summary, tileset, geojson, obj or vtu"),
+        ("output_id" = String, Path, description = "glb, summary, tileset, geojson, obj, vtu, report or chart"),
     ),
     responses(
         (status = 206, description = "Part of the output's bytes (`Range: bytes=...`; `Content-Range` says which)"),
         (status = 416, description = "The range starts past the output's end", body = Problem, content_type = "application/problem+json"),
         (status = 200, description = "The output's bytes", content(
             ("model/gltf-binary"), ("application/json"), ("application/geo+json"),
-            ("model/obj"), ("application/xml"))),
+            ("model/obj"), ("application/xml"), ("text/csv"), ("image/svg+xml"))),
         (status = 401, description = "Missing or wrong API key", body = Problem, content_type = "application/problem+json"),
         (status = 404, description = "No such job or output, or result-not-ready", body = Problem, content_type = "application/problem+json"),
         (status = 503, description = "The job database is not answering", body = Problem, content_type = "application/problem+json"),

@@ -86,6 +86,34 @@ pub struct Args {
     #[arg(long, value_name = "VOLUME")]
     pub min_volume: Option<f64>,
 
+    /// Density in t/m3 for tonnes and metal (the report gives volumes and grades without
+    /// one).
+    #[arg(long, value_name = "T_PER_M3", conflicts_with = "density_column")]
+    pub density: Option<f64>,
+
+    /// Interval-table column holding the density (t/m3), read and interpolated like the
+    /// grade; samples without a value are counted and named in the report.
+    #[arg(long, value_name = "COLUMN")]
+    pub density_column: Option<String>,
+
+    /// Cut-offs of the grade–tonnage curve, FROM:TO:STEP (default: about 20 round
+    /// cut-offs over the values' range).
+    #[arg(long, value_name = "FROM:TO:STEP")]
+    pub grade_tonnage: Option<String>,
+
+    /// Hold out every K-th hole in turn (whole holes, sorted by id), rebuild without it
+    /// and predict its samples; the summary and the terminal get the scores.
+    #[arg(long, value_name = "K")]
+    pub cross_validate: Option<u32>,
+
+    /// Write the grade–tonnage curve as CSV (units in the header).
+    #[arg(long, value_name = "OUT.csv")]
+    pub report: Option<std::path::PathBuf>,
+
+    /// Write the grade–tonnage chart (tonnes and mean grade against cut-off) as SVG.
+    #[arg(long, value_name = "OUT.svg")]
+    pub chart: Option<std::path::PathBuf>,
+
     /// Print the summary JSON on standard output (for CI).
     #[arg(long)]
     pub json: bool,
@@ -135,6 +163,11 @@ impl Args {
             dip: self.dip,
             min_volume: self.min_volume,
             relax: self.relax,
+            variable: self.input.variable.clone(),
+            density: self.density,
+            density_column: self.density_column.clone(),
+            grade_tonnage: self.grade_tonnage.clone(),
+            cross_validate: self.cross_validate,
         }
     }
 
@@ -161,15 +194,23 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if let Err(e) = options.check() {
         return Ok(super::bad_option(&e));
     }
-    let request = match options.into_request(args.source()?) {
+    let mut request = match options.into_request(args.source()?) {
         Ok(request) => request,
         Err(e) => return Ok(super::bad_option(&e)),
     };
+    if args.density_column.is_some() {
+        contour::load_density_column(&mut request, &args.input.to_input()?)?;
+    }
     let bar = Bar::new(args.quiet);
     let result = contour::run(&request, &bar);
     bar.finish();
     let result = result?;
     args.output.write(&result)?;
+    super::report::write(
+        &result.summary,
+        args.report.as_deref(),
+        args.chart.as_deref(),
+    )?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&result.summary)?);
     } else {
@@ -183,6 +224,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 u = result.summary.unit
             );
         }
+        super::report::print(&result.summary);
     }
     Ok(ExitCode::SUCCESS)
 }

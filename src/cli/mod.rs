@@ -12,6 +12,7 @@ pub mod input;
 pub mod inspect;
 pub mod openapi;
 pub mod outputs;
+pub mod report;
 pub mod serve;
 pub mod service_flags;
 pub mod tetrahedralize;

@@ -205,6 +205,7 @@ mod tests {
             truncated: false,
             mt_fallback: false,
             bbox: [origin.to_array(), (origin + 10.0).to_array()],
+            resource: None,
         };
         ContourResult {
             summary: Summary {
@@ -226,7 +227,9 @@ mod tests {
                     filtered_bodies: 0,
                     filtered_volume: 0.0,
                     volume_range: None,
+                    resource: None,
                 }],
+                report: None,
                 warnings: Vec::new(),
             },
             shells: vec![Shell {

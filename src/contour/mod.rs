@@ -4,7 +4,9 @@
 //! Invariant: the summary's volumes and areas are those of exactly the triangles in
 //! `ContourResult::shells`, which are what every exporter writes.
 
+mod cross_validate;
 mod request;
+mod resource;
 mod summary;
 
 use glam::{DMat3, DVec3};
@@ -14,10 +16,12 @@ use crate::progress::{Part, Progress, Stage};
 use crate::tet::{TetError, TetMesh};
 use crate::wells::{ReadReport, SampleSet};
 
+pub use cross_validate::{CrossValidation, GradeScore, HoleScore, ThresholdScore};
 pub use request::{
     Anisotropy, ContourOptions, ContourRequest, GridSource, MAX_THRESHOLDS, OptionError, Source,
     Thresholds, UnknownMode, default_method, is_binary,
 };
+pub use resource::{Density, DensitySummary, ReportRequest, ReportSummary, load_density_column};
 pub use summary::{BodySummary, ShellSummary, Summary, VolumeRange};
 
 /// The outcome of [`run`].
@@ -44,6 +48,10 @@ pub enum ContourError {
     Tet(#[from] TetError),
     #[error("contouring: {0}")]
     Dmt(#[from] DmtError),
+    #[error("density: {0}")]
+    Density(String),
+    #[error("cross-validation: {0}")]
+    CrossValidation(String),
     #[error("cancelled")]
     Cancelled,
 }
@@ -71,7 +79,10 @@ impl Frame {
     }
 }
 
-/// One tetrahedralized point set with a value per mesh vertex.
+/// One tetrahedralized point set with a value per mesh vertex: the piecewise-linear field
+/// that the shells contour and the resource report integrates. When built from samples,
+/// `mesh.vertex_of_input[k]` is the vertex of the k-th sample with a known value (further
+/// vertices, if any, carry the field between the samples).
 struct Classified {
     mesh: TetMesh,
     values: Vec<f64>,
@@ -431,6 +442,24 @@ pub fn run(
     let active = shells.iter().map(|s| s.counts.active_tets).max();
     count("active_tets", active.unwrap_or(0));
     count("bodies", shells.iter().map(|s| s.bodies.len()).sum());
+    let report_input = resource::ReportInput {
+        data: &data,
+        source: &request.source,
+        request: &request.report,
+        frame: &how.frame,
+        unit: &samples.unit,
+        binary,
+    };
+    let mut report = resource::report(&report_input, &shells, &mut shell_summaries)?;
+    if let Some(folds) = request.report.cross_validate {
+        report.cross_validation = Some(cross_validate::cross_validate(
+            &request.source,
+            folds,
+            &thresholds,
+            &how.frame,
+            progress,
+        )?);
+    }
     let summary = Summary {
         method: method.name().to_string(),
         relax_sweeps: match method {
@@ -444,6 +473,7 @@ pub fn run(
         binary,
         counts,
         shells: shell_summaries,
+        report: Some(report),
         warnings,
     };
     Ok(ContourResult {

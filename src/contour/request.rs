@@ -196,6 +196,9 @@ pub struct ContourRequest {
     /// Sweeps of the shape relaxation of IbC and CoI vertices (`dmt::relax`); 0 keeps the
     /// paper's positions. Other methods ignore it.
     pub relax: usize,
+    /// Density, grade unit, grade–tonnage cut-offs and cross-validation of the resource
+    /// report.
+    pub report: super::ReportRequest,
 }
 
 impl ContourRequest {
@@ -211,6 +214,7 @@ impl ContourRequest {
             anisotropy: None,
             min_volume: None,
             relax: dmt::relax::DEFAULT_SWEEPS,
+            report: super::ReportRequest::default(),
         }
     }
 
@@ -285,6 +289,17 @@ pub struct ContourOptions {
     pub dip: Option<f64>,
     pub min_volume: Option<f64>,
     pub relax: Option<u32>,
+    /// Name of the grade variable (interval column or curve), whose unit the report states
+    /// (`Zn_pct` -> %, `Au_gpt` -> g/t, `Ag_ppm` -> ppm, else "as given").
+    pub variable: Option<String>,
+    /// A constant density, t/m3.
+    pub density: Option<f64>,
+    /// The interval column holding the density (t/m3), read like the grade.
+    pub density_column: Option<String>,
+    /// `FROM:TO:STEP` cut-offs of the grade–tonnage curve.
+    pub grade_tonnage: Option<String>,
+    /// Hold out every K-th hole in turn (K folds).
+    pub cross_validate: Option<u32>,
 }
 
 impl ContourOptions {
@@ -317,6 +332,57 @@ impl ContourOptions {
         }
     }
 
+    /// The validated options of the resource report. A density column's values are read by
+    /// the door afterwards ([`super::load_density_column`]).
+    fn report(&self) -> Result<super::ReportRequest, OptionError> {
+        let density = match (self.density, &self.density_column) {
+            (Some(_), Some(_)) => {
+                return Err(OptionError::new(
+                    "density_column",
+                    "give either a constant density or a density column, not both",
+                ));
+            }
+            (Some(r), None) if !(r.is_finite() && r > 0.0) => {
+                return Err(OptionError::new(
+                    "density",
+                    format!("{r} is not a positive number of t/m3"),
+                ));
+            }
+            (Some(r), None) => super::Density::Constant(r),
+            (None, Some(name)) if name.trim().is_empty() => {
+                return Err(OptionError::new("density_column", "is empty"));
+            }
+            (None, Some(name)) => super::Density::Column {
+                name: name.clone(),
+                values: Vec::new(),
+            },
+            (None, None) => super::Density::None,
+        };
+        let grade_tonnage = match &self.grade_tonnage {
+            Some(text) => Some(
+                crate::report::CutoffSweep::parse(text)
+                    .map_err(|e| OptionError::new("grade_tonnage", e))?,
+            ),
+            None => None,
+        };
+        if let Some(k) = self.cross_validate
+            && k < 2
+        {
+            return Err(OptionError::new(
+                "cross_validate",
+                format!("{k} folds: give K of at least 2"),
+            ));
+        }
+        Ok(super::ReportRequest {
+            density,
+            grade_unit: Some(crate::report::GradeUnit::from_variable(
+                self.variable.as_deref(),
+            )),
+            grade_tonnage,
+            cross_validate: self.cross_validate,
+        })
+    }
+
     /// Checks every option without a source (as [`ContourOptions::into_request`] does).
     pub fn check(&self) -> Result<(), OptionError> {
         self.clone()
@@ -327,6 +393,7 @@ impl ContourOptions {
     /// Checks every option and builds the request on `source`.
     pub fn into_request(self, source: Source) -> Result<ContourRequest, OptionError> {
         let (method, lattice) = self.method()?;
+        let report = self.report()?;
         let thresholds = Thresholds::new(self.thresholds)?;
         let unknown = match self.unknown.as_deref() {
             None => UnknownMode::Drop,
@@ -381,6 +448,7 @@ impl ContourOptions {
             anisotropy,
             min_volume: self.min_volume,
             relax,
+            report,
         })
     }
 }

@@ -7,8 +7,9 @@
 use glam::DVec3;
 use serde::Serialize;
 
-use super::UnknownMode;
+use super::{ReportSummary, UnknownMode};
 use crate::dmt::{Quality, Shell, ShellCounts};
+use crate::report::BodyResource;
 
 /// Per-body figures of the summary JSON (design.md contract), in input units.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -22,6 +23,10 @@ pub struct BodySummary {
     pub mt_fallback: bool,
     /// `[[min x, min y, min z], [max x, max y, max z]]` in input coordinates (origin added).
     pub bbox: [[f64; 3]; 2],
+    /// Tonnes, mean grade, metal and the samples inside (the resource report; units in
+    /// `Summary::report.units`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub resource: Option<BodyResource>,
 }
 
 /// Per-threshold figures of the summary JSON.
@@ -42,6 +47,9 @@ pub struct ShellSummary {
     /// outside (pessimistic) and as inside (optimistic).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub volume_range: Option<VolumeRange>,
+    /// The shell's resource: the sums over its bodies (units in `Summary::report.units`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub resource: Option<BodyResource>,
 }
 
 /// The volume range that brackets the answer when some samples are "don't know".
@@ -69,6 +77,9 @@ pub struct Summary {
     pub binary: bool,
     pub counts: serde_json::Map<String, serde_json::Value>,
     pub shells: Vec<ShellSummary>,
+    /// Units, density, the grade–tonnage curve and cross-validation.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub report: Option<ReportSummary>,
     /// What reading the input doubted or dropped.
     pub warnings: Vec<String>,
 }
@@ -82,6 +93,7 @@ pub(super) fn body_summary(body: &crate::dmt::Body, origin: DVec3) -> BodySummar
         truncated: body.truncated,
         mt_fallback: body.mt_fallback,
         bbox: [(lo + origin).to_array(), (hi + origin).to_array()],
+        resource: None,
     }
 }
 
@@ -105,5 +117,6 @@ pub(super) fn shell_summary(
         filtered_bodies,
         filtered_volume,
         volume_range: None,
+        resource: None,
     }
 }

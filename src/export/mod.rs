@@ -9,6 +9,7 @@ mod georef;
 mod glb;
 mod levels;
 mod obj;
+mod report;
 pub mod tet_vtu;
 mod vtu;
 
@@ -16,6 +17,7 @@ pub use georef::{EnuFrame, enu_frame, tileset_json};
 pub use glb::glb;
 pub use levels::{Levels, geojson_levels, level_rings};
 pub use obj::obj;
+pub use report::{chart_title, report_csv, report_svg};
 pub use vtu::vtu;
 
 use crate::contour::{ContourResult, Summary};
@@ -114,7 +116,7 @@ pub fn summary_json(summary: &Summary) -> Result<Vec<u8>, ExportError> {
 }
 
 /// Every output of a job, in the order `glb`, `summary`, `tileset`, `geojson`, `obj`,
-/// `vtu`. The tileset is left out (not an error) when the result has no CRS or a CRS that
+/// `vtu`, then `report` (grade–tonnage CSV) and `chart` (its SVG) when there is a curve. The tileset is left out (not an error) when the result has no CRS or a CRS that
 /// cannot be placed on the globe; [`tileset_json`] says why.
 pub fn all_outputs(
     result: &ContourResult,
@@ -162,6 +164,22 @@ pub fn all_outputs(
         media_type: "application/xml",
         bytes: vtu(result)?,
     });
+    if let Some(bytes) = report_csv(&result.summary) {
+        outputs.push(Output {
+            id: "report",
+            file_name: "grade_tonnage.csv".to_owned(),
+            media_type: "text/csv",
+            bytes,
+        });
+    }
+    if let Some(bytes) = report_svg(&result.summary) {
+        outputs.push(Output {
+            id: "chart",
+            file_name: "grade_tonnage.svg".to_owned(),
+            media_type: "image/svg+xml",
+            bytes,
+        });
+    }
     Ok(outputs)
 }
 

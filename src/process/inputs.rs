@@ -87,6 +87,26 @@ pub struct ProcessInputs {
     /// the paper's positions).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub relax: Option<u32>,
+    /// Density in t/m3: the report gives tonnes and contained metal with it (volumes and
+    /// mean grades without). Not with `density_column`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(exclusive_minimum = 0.0)]
+    pub density: Option<f64>,
+    /// Interval column holding the density (t/m3), read and interpolated like `variable`;
+    /// samples without a value are counted and named in the report.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub density_column: Option<String>,
+    /// Cut-offs of the grade–tonnage curve as `FROM:TO:STEP` (e.g. `1:10:0.5`); default
+    /// about 20 round cut-offs over the values' range. The curve is in the summary and the
+    /// `report` (CSV) and `chart` (SVG) results.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(pattern = r"^[^:]+:[^:]+:[^:]+$")]
+    pub grade_tonnage: Option<String>,
+    /// Cross-validate with K folds: hold out every K-th hole in turn (whole holes, sorted by
+    /// id), rebuild without it and predict its samples; the scores are in the summary.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = 2)]
+    pub cross_validate: Option<u32>,
     /// Draw the drill-hole traces (line primitives) in the GLB; default true.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub well_traces: Option<bool>,
@@ -236,6 +256,11 @@ impl ProcessInputs {
             dip: self.dip,
             min_volume: self.min_volume,
             relax: self.relax,
+            variable: self.variable.clone(),
+            density: self.density,
+            density_column: self.density_column.clone(),
+            grade_tonnage: self.grade_tonnage.clone(),
+            cross_validate: self.cross_validate,
         }
     }
 

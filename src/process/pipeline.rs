@@ -38,9 +38,11 @@ impl ContourPipeline {
         if progress.is_cancelled() {
             return Err(JobFailure::Cancelled);
         }
-        let request = inputs
+        let mut request = inputs
             .contour_request(samples)
             .map_err(|e| JobFailure::input_field(e.field.clone(), e.to_string()))?;
+        contour::load_density_column(&mut request, &inputs.wells_input())
+            .map_err(contour_failure)?;
         let result = contour::run(&request, progress).map_err(contour_failure)?;
         if progress.is_cancelled() {
             return Err(JobFailure::Cancelled);
@@ -103,6 +105,10 @@ fn contour_failure(error: ContourError) -> JobFailure {
             DmtError::ValueCount { .. } | DmtError::NonFinite(_) | DmtError::BadThreshold(_),
         ) => JobFailure::Internal(error.to_string()),
         ContourError::NoThresholds => JobFailure::input_field("thresholds", error.to_string()),
+        ContourError::Density(_) => JobFailure::input_field("density_column", error.to_string()),
+        ContourError::CrossValidation(_) => {
+            JobFailure::input_field("cross_validate", error.to_string())
+        }
         ContourError::NoKnownSamples { .. } | ContourError::Grid(_) | ContourError::Tet(_) => {
             JobFailure::input(error.to_string())
         }
@@ -131,6 +137,8 @@ mod tests {
             ContourError::Tet(TetError::AllCoplanar),
             ContourError::Tet(TetError::TooFewPoints { distinct: 3 }),
             ContourError::NoKnownSamples { unknown: 9 },
+            ContourError::Density("column SG: no sample with a grade has a density".into()),
+            ContourError::CrossValidation("5 folds for 3 holes".into()),
         ];
         for error in input {
             assert!(matches!(contour_failure(error), JobFailure::Input { .. }));
