@@ -365,7 +365,12 @@ pub fn load_density_column(
             samples.points.len()
         )));
     }
-    if let Some(bad) = read.values.iter().flatten().find(|r| r.is_nan() || **r <= 0.0) {
+    if let Some(bad) = read
+        .values
+        .iter()
+        .flatten()
+        .find(|r| r.is_nan() || **r <= 0.0)
+    {
         return Err(ContourError::Density(format!(
             "column {name}: {bad} is not a positive density (t/m3)"
         )));

@@ -135,6 +135,10 @@ const TITLES: &[(&str, &str)] = &[
     ("dip", "Anisotropy dip"),
     ("min_volume", "Minimum body volume"),
     ("relax", "Shape relaxation sweeps"),
+    ("density", "Density"),
+    ("density_column", "Density column"),
+    ("grade_tonnage", "Grade–tonnage cut-offs"),
+    ("cross_validate", "Cross-validation folds"),
     ("well_traces", "Drill-hole traces"),
     ("well_samples", "Samples"),
 ];
@@ -193,7 +197,9 @@ pub fn process_description() -> ProcessDescription {
         "summary".to_string(),
         output(
             "Summary",
-            "Method, origin, CRS, counts, and per threshold the volume, area and bodies.",
+            "Method, origin, CRS, counts, and per threshold the volume, area and bodies; the \
+             resource report (tonnes, mean grade, metal and samples inside per body, the \
+             grade–tonnage curve, cross-validation) under `report` and `resource`.",
             "application/json",
         ),
     );
@@ -231,6 +237,23 @@ pub fn process_description() -> ProcessDescription {
             "VTU mesh",
             "VTK unstructured grid of the bodies.",
             "application/xml",
+        ),
+    );
+    outputs.insert(
+        "report".to_string(),
+        output(
+            "Grade–tonnage table",
+            "CSV: per cut-off the volume (m3), tonnes, mean grade and metal, units in the \
+             header (when the job has a grade–tonnage curve).",
+            "text/csv",
+        ),
+    );
+    outputs.insert(
+        "chart".to_string(),
+        output(
+            "Grade–tonnage chart",
+            "SVG: tonnes and mean grade against cut-off, the figures of the report output.",
+            "image/svg+xml",
         ),
     );
     ProcessDescription {
