@@ -210,3 +210,37 @@ fn the_inspect_row_of_the_sample_wells_table_is_what_the_program_prints() {
         assert_printed(set["value_range"][1].as_f64().unwrap(), hi, "largest value");
     }
 }
+
+#[test]
+fn the_resource_report_row_of_tom_zone_is_what_the_program_prints() {
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(README)).unwrap();
+    for (i, row) in table(&readme, "## The resource report of Tom Zone")
+        .iter()
+        .enumerate()
+    {
+        let dir = scratch(&format!("report{i}"));
+        let summary = contour_summary(row, &dir);
+        let shell = &summary["shells"][0]["resource"];
+        let cv = &summary["report"]["cross_validation"];
+        for (column, value) in [
+            ("volume (m3)", &shell["volume_m3"]),
+            ("tonnes (t)", &shell["tonnes"]),
+            ("mean grade (%)", &shell["mean_grade"]),
+            ("metal (t)", &shell["metal"]),
+            ("samples inside", &shell["samples"]["count"]),
+            ("their mean (%)", &shell["samples"]["mean"]),
+            (
+                "balanced accuracy",
+                &cv["thresholds"][0]["balanced_accuracy"],
+            ),
+            ("mean abs error (%)", &cv["grade"]["mean_abs_error"]),
+        ] {
+            let value = value
+                .as_f64()
+                .unwrap_or_else(|| panic!("{README}: no figure for {column:?} in the summary"));
+            assert_printed(value, cell(row, column), column);
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -5,8 +5,9 @@
 //! Invariant: a point is found in a tetrahedron whose barycentric weights are all at least
 //! `-WEIGHT_SLACK` (then clamped to 0 and renormalised, so they sum to 1), or reported
 //! outside the hull; never a wrong tetrahedron silently. The walk is the visibility walk
-//! (across the face the point is beyond), which ends on a Delaunay mesh; a walk that runs
-//! too long falls back to a scan of every tetrahedron.
+//! (across the face the point is most beyond), which ends on a Delaunay mesh; a point
+//! beyond a hull face's plane (by more than the slack) is outside, since the hull is
+//! convex. A walk that runs too long falls back to a scan of every tetrahedron.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -67,9 +68,8 @@ impl<'a> Locator<'a> {
             }
             let next = self.mesh.neighbours(t)[worst];
             if next == NO_NEIGHBOUR {
-                // Beyond a hull face's plane: outside the (convex) hull, unless rounding
-                // put a point on the face just beyond it.
-                return self.scan(q);
+                // Beyond a hull face's plane, which bounds the (convex) hull: outside.
+                return None;
             }
             t = (next / 4) as usize;
         }
