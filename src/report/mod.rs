@@ -263,9 +263,14 @@ impl CutoffSweep {
         ((self.to - self.from) / self.step * (1.0 + 1e-9) + 1e-9).floor() as usize + 1
     }
 
+    /// The cut-offs, each rounded to 12 significant digits (`0.1 × 14` is 1.4, not
+    /// 1.4000000000000001).
     pub fn cutoffs(&self) -> Vec<f64> {
         (0..self.count())
-            .map(|i| self.from + self.step * i as f64)
+            .map(|i| {
+                let x = self.from + self.step * i as f64;
+                format!("{x:.11e}").parse().unwrap_or(x)
+            })
             .collect()
     }
 
@@ -396,6 +401,9 @@ mod tests {
         assert_eq!(d.cutoffs().len(), 20);
         assert!(*d.cutoffs().last().unwrap() < 39.0);
         assert!(CutoffSweep::default_for(1.0, 1.0).is_none());
+        let tenths = CutoffSweep::default_for(0.0, 2.0).unwrap().cutoffs();
+        assert_eq!(tenths[14], 1.4);
+        assert_eq!(tenths[19], 1.9);
     }
 
     #[test]

@@ -3,7 +3,9 @@
 // through three.js' GLTFLoader, fails on any console error, page error or failed request,
 // shows only the shells (drill holes and samples toggled off), takes a screenshot and checks
 // by pixels that the bodies are visible, then toggles the shells off and checks that the
-// view is empty.
+// view is empty. Then checks the grade–tonnage chart beside the bodies: its points carry
+// the summary's figures, its curves are drawn (a PNG of it, OUT-chart.png, for the CI log),
+// and the legend shows the first body's tonnes.
 //
 // Usage: node viewer/test/browser.mjs BASE_URL JOB_ID OUT.png
 // Environment: CHROMIUM (default /usr/bin/chromium), VIEWER_TIMEOUT_MS (default 120000).
@@ -134,6 +136,71 @@ try {
     problems.push(`toggling the shells off left ${(100 * hidden.share).toFixed(2)}% of pixels drawn`);
   }
   for (const box of shellBoxes) await box.setChecked(true);
+
+  // The grade–tonnage chart beside the bodies: drawn, a PNG of it for the CI log, and the
+  // figures of the summary in the chart's points and the legend.
+  const results = await page.evaluate(async (id) => {
+    const r = await fetch(`/jobs/${encodeURIComponent(id)}/results`);
+    return r.json();
+  }, jobId);
+  const rows = results.summary?.report?.grade_tonnage ?? [];
+  if (results.chart?.href) {
+    await page.waitForFunction(() => window.wellmeshViewer?.chart, null, { timeout, polling: 250 });
+    const chartPng = outPng.replace(/\.png$/, '') + '-chart.png';
+    const png = await page.locator('#chart').screenshot({ timeout });
+    await writeFile(chartPng, png);
+    const svg = await page.evaluate(async (href) => (await fetch(href)).text(), results.chart.href);
+    const points = [...svg.matchAll(/<circle class="point"[^>]*>/g)].map((m) => m[0]);
+    const attr = (el, name) => {
+      const found = el.match(new RegExp(` ${name}="([^"]*)"`));
+      return found ? Number(found[1]) : null;
+    };
+    if (points.length !== rows.length) {
+      problems.push(`the chart has ${points.length} points, the summary ${rows.length} cut-offs`);
+    }
+    rows.forEach((row, i) => {
+      const el = points[i] ?? '';
+      const left = row.tonnes ?? row.volume_m3;
+      const leftAttr = row.tonnes == null ? 'data-volume' : 'data-tonnes';
+      if (attr(el, 'data-cutoff') !== row.cutoff || attr(el, leftAttr) !== left) {
+        problems.push(`chart point ${i} is not the summary's cut-off ${row.cutoff}: ${el}`);
+      }
+      if (row.mean_grade != null && attr(el, 'data-grade') !== row.mean_grade) {
+        problems.push(`chart point ${i}: grade ${attr(el, 'data-grade')} vs ${row.mean_grade}`);
+      }
+    });
+    // The chart is drawn: its series' colours are on the screenshot.
+    const drawn = await page.evaluate(async (b64) => {
+      const image = new Image();
+      image.src = `data:image/png;base64,${b64}`;
+      await image.decode();
+      const c = document.createElement('canvas');
+      c.width = image.width;
+      c.height = image.height;
+      const ctx = c.getContext('2d');
+      ctx.drawImage(image, 0, 0);
+      const { data } = ctx.getImageData(0, 0, c.width, c.height);
+      let blue = 0;
+      let orange = 0;
+      for (let i = 0; i < data.length; i += 4) {
+        const [r, g, b] = [data[i], data[i + 1], data[i + 2]];
+        if (b > 150 && r < 90 && g > 90 && g < 160) blue += 1;
+        if (r > 190 && g > 70 && g < 130 && b < 60) orange += 1;
+      }
+      return { blue, orange };
+    }, png.toString('base64'));
+    console.log(`chart: ${points.length} points, ${drawn.blue} tonnes and ${drawn.orange} grade pixels; ${chartPng}`);
+    if (drawn.blue < 50 || drawn.orange < 50) problems.push(`the chart shows no curves (${JSON.stringify(drawn)})`);
+    // Tonnes and grade per body in the legend.
+    const legend = await page.locator('#legend-rows').innerText();
+    const body = results.summary.shells?.[0]?.bodies?.[0]?.resource;
+    if (body?.tonnes != null) {
+      const shown = body.tonnes.toLocaleString('en', { maximumFractionDigits: 0 });
+      if (!legend.includes(shown)) problems.push(`the legend does not show body 1's ${shown} t`);
+    }
+  } else if (rows.length) {
+    problems.push('the summary has a grade–tonnage curve but the results no chart');
+  }
 } catch (err) {
   problems.push(`browser test: ${err.message}`);
 } finally {

@@ -44,7 +44,7 @@ done
 node -e '
   const fs = require("fs");
   const [csv, threshold, out] = process.argv.slice(1);
-  const inputs = { samples_csv: fs.readFileSync(csv, "utf8"), thresholds: [Number(threshold)] };
+  const inputs = { samples_csv: fs.readFileSync(csv, "utf8"), thresholds: [Number(threshold)], density: 2.7 };
   fs.writeFileSync(out, JSON.stringify({ inputs }));
 ' "$csv" "$threshold" "$data/request.json"
 location=$(curl -sf -D - -o "$data/response.json" -X POST \
