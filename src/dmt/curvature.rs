@@ -196,12 +196,13 @@ pub fn optimize(
     let rings = rings(topo);
     let classes = colour_classes(&rings, n);
     let lattice = lattice.clamp(MIN_LATTICE, MAX_LATTICE);
-    let weights = lattice_weights(lattice);
-    let corners = |v: usize| -> [DVec3; 4] {
-        let VertexRole::Tet { tet } = topo.roles[v] else {
-            unreachable!("DMT vertices come first")
-        };
-        mesh.tet(tet as usize).map(|p| mesh.points[p as usize])
+    let search = LatticeSearch {
+        topo,
+        mesh,
+        rings: &rings,
+        corner_field,
+        weights: lattice_weights(lattice),
+        lattice,
     };
     let scale = mesh
         .points
@@ -220,109 +221,22 @@ pub fn optimize(
             if progress.is_cancelled() {
                 return Err(DmtError::Cancelled);
             }
-            let updates: Vec<(u32, DVec3, f64, usize)> = class
+            let updates: Vec<LatticeMove> = class
                 .par_iter()
                 .filter(|&&v| dirty[v as usize])
-                .map(|&v| {
-                    let v = v as usize;
-                    let p = corners(v);
-                    // Energy of the neighbourhood the move changes: the integrated norm
-                    // curvature of the vertex and of each movable 1-ring neighbour (their
-                    // rings hold the vertex). Its sum over the surface only falls, so the
-                    // sweeps cannot crumple the surface to lower a per-area estimate.
-                    let mut ring: Vec<(DVec3, DVec3)> = Vec::new();
-                    let mut neighbour_rings: Vec<NeighbourRing> = Vec::new();
-                    let mut seen: Vec<u32> = Vec::new();
-                    for &(a, b) in rings.of(v) {
-                        ring.push((positions[a as usize], positions[b as usize]));
-                        for w in [a, b] {
-                            if (w as usize) < n && !seen.contains(&w) {
-                                seen.push(w);
-                                let own = rings.of(w as usize);
-                                neighbour_rings.push((
-                                    own.iter()
-                                        .map(|&(c, d)| {
-                                            (positions[c as usize], positions[d as usize])
-                                        })
-                                        .collect(),
-                                    positions[w as usize],
-                                    own.iter()
-                                        .map(|&(c, d)| (c as usize == v, d as usize == v))
-                                        .collect(),
-                                ));
-                            }
-                        }
-                    }
-                    let mut scratch: Vec<(DVec3, DVec3)> = Vec::new();
-                    let mut energy = |x: DVec3| -> f64 {
-                        let mut e = integrated(x, &ring);
-                        for (their, at, is_v) in &neighbour_rings {
-                            scratch.clear();
-                            scratch.extend(their.iter().zip(is_v).map(|(&(c, d), &(cv, dv))| {
-                                (if cv { x } else { c }, if dv { x } else { d })
-                            }));
-                            e += integrated(*at, &scratch);
-                        }
-                        e
-                    };
-                    // Candidates lie within an eighth of a lattice step (in field units) of
-                    // the balanced distance field's zero level, the smooth surface the
-                    // search starts from: on drilling tetrahedra every lattice point
-                    // further out made the surface rougher (docs/dmt.md).
-                    let f = corner_field[v];
-                    let (lo, hi) = f
-                        .iter()
-                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
-                            (l.min(x), h.max(x))
-                        });
-                    let band = (hi - lo) / (BAND_STEPS * f64::from(lattice));
-                    let ring_area = |x: DVec3| -> f64 {
-                        ring.iter()
-                            .map(|&(a, b)| 0.5 * (a - x).cross(b - x).length())
-                            .sum()
-                    };
-                    let area_here = ring_area(positions[v]);
-                    let here = energy(positions[v]);
-                    let mut best = (here, usize::MAX);
-                    for (i, &w) in weights.iter().enumerate() {
-                        if visited[v] & (1u64 << i.min(63)) != 0 {
-                            continue;
-                        }
-                        let fx = f[0] * w[0] + f[1] * w[1] + f[2] * w[2] + f[3] * w[3];
-                        if fx.abs() > band {
-                            continue;
-                        }
-                        let x = p[0] * w[0] + p[1] * w[1] + p[2] * w[2] + p[3] * w[3];
-                        // Nor may a move enlarge the corner triangles: on drilling
-                        // tetrahedra the estimate is lowered by stretching a 1-ring.
-                        if ring_area(x) > area_here {
-                            continue;
-                        }
-                        let e = energy(x);
-                        if e < best.0 - 1e-12 * here.abs() {
-                            best = (e, i);
-                        }
-                    }
-                    let i = best.1;
-                    if i == usize::MAX {
-                        return (v as u32, positions[v], 0.0, usize::MAX);
-                    }
-                    let w = weights[i];
-                    let x = p[0] * w[0] + p[1] * w[1] + p[2] * w[2] + p[3] * w[3];
-                    (v as u32, x, (x - positions[v]).length(), i)
-                })
+                .map(|&v| search.best_move(v as usize, positions, visited[v as usize]))
                 .collect();
             for &v in class {
                 dirty[v as usize] = false;
             }
-            for (v, x, d, i) in updates {
-                if i != usize::MAX {
-                    visited[v as usize] |= 1u64 << i.min(63);
+            for m in updates {
+                if let Some(i) = m.candidate {
+                    visited[m.vertex] |= 1u64 << i.min(63);
                 }
-                if d > tolerance {
-                    positions[v as usize] = x;
-                    moved = moved.max(d);
-                    for &(a, b) in rings.of(v as usize) {
+                if m.distance > tolerance {
+                    positions[m.vertex] = m.position;
+                    moved = moved.max(m.distance);
+                    for &(a, b) in rings.of(m.vertex) {
                         for w in [a, b] {
                             if (w as usize) < n {
                                 dirty[w as usize] = true;
@@ -340,6 +254,161 @@ pub fn optimize(
         }
     }
     Ok(())
+}
+
+/// Where a DMT vertex goes: the lattice candidate taken (None: it stays) and how far that
+/// moves it.
+struct LatticeMove {
+    vertex: usize,
+    position: DVec3,
+    distance: f64,
+    candidate: Option<usize>,
+}
+
+/// What the curvature search reads: the mesh, the DMT vertices' rings, the balanced field
+/// at each active tetrahedron's corners and the lattice's barycentric weights.
+struct LatticeSearch<'a> {
+    topo: &'a Topology,
+    mesh: &'a TetMesh,
+    rings: &'a Rings,
+    corner_field: &'a [[f64; 4]],
+    weights: Vec<[f64; 4]>,
+    lattice: u32,
+}
+
+impl LatticeSearch<'_> {
+    /// The corners of DMT vertex `v`'s tetrahedron.
+    fn corners(&self, v: usize) -> [DVec3; 4] {
+        let VertexRole::Tet { tet } = self.topo.roles[v] else {
+            unreachable!("DMT vertices come first")
+        };
+        let mesh = self.mesh;
+        mesh.tet(tet as usize).map(|p| mesh.points[p as usize])
+    }
+
+    /// Vertex `v`'s lattice candidate (not among the `visited` ones) that lowers the
+    /// integrated norm curvature of its neighbourhood most, within the band around the
+    /// balanced field's zero and without enlarging its 1-ring.
+    fn best_move(&self, v: usize, positions: &[DVec3], visited: u64) -> LatticeMove {
+        let p = self.corners(v);
+        let hood = Neighbourhood::new(self.rings, self.topo.active_tets, v, positions);
+        let mut scratch: Vec<(DVec3, DVec3)> = Vec::new();
+        // Candidates lie within an eighth of a lattice step (in field units) of the
+        // balanced distance field's zero level, the smooth surface the search starts from:
+        // on drilling tetrahedra every lattice point further out made the surface rougher
+        // (docs/dmt.md).
+        let f = self.corner_field[v];
+        let (lo, hi) = f
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                (l.min(x), h.max(x))
+            });
+        let band = (hi - lo) / (BAND_STEPS * f64::from(self.lattice));
+        let area_here = hood.ring_area(positions[v]);
+        let here = hood.energy(positions[v], &mut scratch);
+        let mut best = (here, usize::MAX);
+        for (i, &w) in self.weights.iter().enumerate() {
+            if visited & (1u64 << i.min(63)) != 0 {
+                continue;
+            }
+            let fx = f[0] * w[0] + f[1] * w[1] + f[2] * w[2] + f[3] * w[3];
+            if fx.abs() > band {
+                continue;
+            }
+            let x = p[0] * w[0] + p[1] * w[1] + p[2] * w[2] + p[3] * w[3];
+            // Nor may a move enlarge the corner triangles: on drilling tetrahedra the
+            // estimate is lowered by stretching a 1-ring.
+            if hood.ring_area(x) > area_here {
+                continue;
+            }
+            let e = hood.energy(x, &mut scratch);
+            if e < best.0 - 1e-12 * here.abs() {
+                best = (e, i);
+            }
+        }
+        let i = best.1;
+        if i == usize::MAX {
+            return LatticeMove {
+                vertex: v,
+                position: positions[v],
+                distance: 0.0,
+                candidate: None,
+            };
+        }
+        let w = self.weights[i];
+        let x = p[0] * w[0] + p[1] * w[1] + p[2] * w[2] + p[3] * w[3];
+        LatticeMove {
+            vertex: v,
+            position: x,
+            distance: (x - positions[v]).length(),
+            candidate: Some(i),
+        }
+    }
+}
+
+/// The neighbourhood a move of DMT vertex `v` changes: its 1-ring and the rings of its
+/// movable 1-ring neighbours (which hold `v`).
+struct Neighbourhood {
+    ring: Vec<(DVec3, DVec3)>,
+    neighbour_rings: Vec<NeighbourRing>,
+}
+
+impl Neighbourhood {
+    /// `v`'s neighbourhood at `positions`; the first `n` vertices are the movable ones.
+    fn new(rings: &Rings, n: usize, v: usize, positions: &[DVec3]) -> Self {
+        let mut ring: Vec<(DVec3, DVec3)> = Vec::new();
+        let mut neighbour_rings: Vec<NeighbourRing> = Vec::new();
+        let mut seen: Vec<u32> = Vec::new();
+        for &(a, b) in rings.of(v) {
+            ring.push((positions[a as usize], positions[b as usize]));
+            for w in [a, b] {
+                if (w as usize) < n && !seen.contains(&w) {
+                    seen.push(w);
+                    let own = rings.of(w as usize);
+                    neighbour_rings.push((
+                        own.iter()
+                            .map(|&(c, d)| (positions[c as usize], positions[d as usize]))
+                            .collect(),
+                        positions[w as usize],
+                        own.iter()
+                            .map(|&(c, d)| (c as usize == v, d as usize == v))
+                            .collect(),
+                    ));
+                }
+            }
+        }
+        Self {
+            ring,
+            neighbour_rings,
+        }
+    }
+
+    /// The energy of the neighbourhood with the vertex at `x`: the integrated norm
+    /// curvature of the vertex and of each movable 1-ring neighbour. Its sum over the
+    /// surface only falls, so the sweeps cannot crumple the surface to lower a per-area
+    /// estimate.
+    fn energy(&self, x: DVec3, scratch: &mut Vec<(DVec3, DVec3)>) -> f64 {
+        let mut e = integrated(x, &self.ring);
+        for (their, at, is_v) in &self.neighbour_rings {
+            scratch.clear();
+            scratch.extend(
+                their
+                    .iter()
+                    .zip(is_v)
+                    .map(|(&(c, d), &(cv, dv))| (if cv { x } else { c }, if dv { x } else { d })),
+            );
+            e += integrated(*at, scratch);
+        }
+        e
+    }
+
+    /// The area of the vertex's corner triangles with the vertex at `x`.
+    fn ring_area(&self, x: DVec3) -> f64 {
+        self.ring
+            .iter()
+            .map(|&(a, b)| 0.5 * (a - x).cross(b - x).length())
+            .sum()
+    }
 }
 
 #[cfg(test)]

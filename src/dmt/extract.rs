@@ -108,136 +108,18 @@ fn corner_index(tet: &[u32; 4], v: u32) -> usize {
 
 /// Builds the DMT topology of `mesh` classified by `marked` (one flag per mesh vertex).
 pub fn build(mesh: &TetMesh, marked: &[bool]) -> Topology {
-    let tet_count = mesh.tet_count();
-    let is_active = |t: usize| {
-        let m = mesh.tet(t).iter().filter(|&&v| marked[v as usize]).count();
-        m > 0 && m < 4
-    };
-    let active: Vec<u32> = (0..tet_count as u32)
-        .into_par_iter()
-        .filter(|&t| is_active(t as usize))
-        .collect();
-    let mut tet_vertex = vec![u32::MAX; tet_count];
+    let active = active_tets(mesh, marked);
+    let mut tet_vertex = vec![u32::MAX; mesh.tet_count()];
     for (i, &t) in active.iter().enumerate() {
         tet_vertex[t as usize] = i as u32;
     }
     let mut roles: Vec<VertexRole> = active.iter().map(|&t| VertexRole::Tet { tet: t }).collect();
-
-    // Active edges, each with one tetrahedron that holds it.
-    let mut edges: Vec<(u64, u32)> = active
-        .par_iter()
-        .flat_map_iter(|&t| {
-            let tv = mesh.tet(t as usize);
-            TET_EDGES.iter().filter_map(move |&(i, j)| {
-                let (a, b) = (tv[i], tv[j]);
-                (marked[a as usize] != marked[b as usize]).then(|| (edge_key(a, b), t))
-            })
-        })
-        .collect();
-    edges.par_sort_unstable();
-    edges.dedup_by_key(|e| e.0);
-
-    // Hull: active hull faces (W_f), active hull edges (U_e), marked hull points.
-    let hull_faces: Vec<u32> = (0..tet_count as u32)
-        .into_par_iter()
-        .flat_map_iter(|t| {
-            (0..4u32).filter_map(move |i| {
-                (mesh.neighbours(t as usize)[i as usize] == NO_NEIGHBOUR).then_some(t * 4 + i)
-            })
-        })
-        .collect();
-    let face_corners = |f: u32| -> [u32; 3] {
-        let tv = mesh.tet((f / 4) as usize);
-        FACE_OUTWARD[(f % 4) as usize].map(|i| tv[i])
-    };
-    let mut face_vertex: HashMap<u32, u32> = HashMap::new();
-    let mut edge_vertex: HashMap<u64, u32> = HashMap::new();
-    let mut point_vertex: HashMap<u32, u32> = HashMap::new();
-    for &f in &hull_faces {
-        let c = face_corners(f);
-        let m = c.iter().filter(|&&v| marked[v as usize]).count();
-        if m > 0 {
-            for &v in &c {
-                if marked[v as usize] {
-                    point_vertex.entry(v).or_insert_with(|| {
-                        roles.push(VertexRole::HullPoint { point: v });
-                        roles.len() as u32 - 1
-                    });
-                }
-            }
-        }
-        if m == 0 || m == 3 {
-            continue;
-        }
-        face_vertex.insert(f, roles.len() as u32);
-        roles.push(VertexRole::HullFace { face: f });
-        for k in 0..3 {
-            let (a, b) = (c[k], c[(k + 1) % 3]);
-            if marked[a as usize] != marked[b as usize] {
-                edge_vertex.entry(edge_key(a, b)).or_insert_with(|| {
-                    let (a, b) = if marked[a as usize] { (a, b) } else { (b, a) };
-                    roles.push(VertexRole::HullEdge { a, b });
-                    roles.len() as u32 - 1
-                });
-            }
-        }
-    }
-
-    // Dual polygons, counter-clockwise around each active edge oriented marked -> unmarked.
+    let edges = active_edges(mesh, marked, &active);
+    let hull_faces = hull_faces(mesh);
+    let hull = HullVertices::new(mesh, marked, &hull_faces, &mut roles);
     let dual: Vec<(Vec<u32>, (u32, u32), bool)> = edges
         .par_iter()
-        .map(|&(key, start)| {
-            let (lo, hi) = ((key >> 32) as u32, key as u32);
-            let (a, b) = if marked[lo as usize] {
-                (lo, hi)
-            } else {
-                (hi, lo)
-            };
-            let (c0, d0) = oriented_around(&mesh.tet(start as usize), a, b);
-            let mut ring = Vec::with_capacity(8);
-            // Walk counter-clockwise from `start`; an interior edge closes the ring.
-            let (mut t, mut c, mut d) = (start, c0, d0);
-            let mut end_face = None;
-            loop {
-                ring.push(tet_vertex[t as usize]);
-                let k = corner_index(&mesh.tet(t as usize), c);
-                let n = mesh.neighbours(t as usize)[k];
-                if n == NO_NEIGHBOUR {
-                    end_face = Some(t * 4 + k as u32);
-                    break;
-                }
-                (t, c, d) = (n / 4, d, mesh.tet((n / 4) as usize)[(n % 4) as usize]);
-                if t == start {
-                    break;
-                }
-            }
-            let mut open_start = None;
-            if let Some(end_face) = end_face {
-                // A hull edge: walk clockwise from `start` to the other hull face, then
-                // close the chain through W_f, U_e, W_f' (capping.md).
-                let mut before = Vec::new();
-                let (mut t, mut c, mut d) = (start, c0, d0);
-                loop {
-                    let l = corner_index(&mesh.tet(t as usize), d);
-                    let n = mesh.neighbours(t as usize)[l];
-                    if n == NO_NEIGHBOUR {
-                        open_start = Some(t * 4 + l as u32);
-                        break;
-                    }
-                    (t, c, d) = (n / 4, mesh.tet((n / 4) as usize)[(n % 4) as usize], c);
-                    before.push(tet_vertex[t as usize]);
-                }
-                before.reverse();
-                before.extend_from_slice(&ring);
-                ring = before;
-                let start_face = open_start.expect("an open ring has two hull ends");
-                ring.push(face_vertex[&end_face]);
-                ring.push(edge_vertex[&edge_key(a, b)]);
-                ring.push(face_vertex[&start_face]);
-            }
-            let open = open_start.is_some();
-            (ring, (a, b), open)
-        })
+        .map(|&(key, start)| dual_polygon(mesh, marked, &tet_vertex, &hull, key, start))
         .collect();
 
     let mut topo = Topology {
@@ -254,10 +136,185 @@ pub fn build(mesh: &TetMesh, marked: &[bool]) -> Topology {
         topo.starts.push(topo.corners.len() as u32);
         topo.kinds.push(PolygonKind::Dual);
     }
+    push_caps(&mut topo, mesh, marked, &hull_faces, &hull);
+    topo.roles = roles;
+    topo
+}
 
-    // Caps: the marked part of every hull triangle, counter-clockwise seen from outside.
-    for &f in &hull_faces {
-        let c = face_corners(f);
+/// The tetrahedra with both marked and unmarked corners, in tet order.
+fn active_tets(mesh: &TetMesh, marked: &[bool]) -> Vec<u32> {
+    let is_active = |t: usize| {
+        let m = mesh.tet(t).iter().filter(|&&v| marked[v as usize]).count();
+        m > 0 && m < 4
+    };
+    (0..mesh.tet_count() as u32)
+        .into_par_iter()
+        .filter(|&t| is_active(t as usize))
+        .collect()
+}
+
+/// The active edges (by [`edge_key`], sorted), each with one tetrahedron that holds it.
+fn active_edges(mesh: &TetMesh, marked: &[bool], active: &[u32]) -> Vec<(u64, u32)> {
+    let mut edges: Vec<(u64, u32)> = active
+        .par_iter()
+        .flat_map_iter(|&t| {
+            let tv = mesh.tet(t as usize);
+            TET_EDGES.iter().filter_map(move |&(i, j)| {
+                let (a, b) = (tv[i], tv[j]);
+                (marked[a as usize] != marked[b as usize]).then(|| (edge_key(a, b), t))
+            })
+        })
+        .collect();
+    edges.par_sort_unstable();
+    edges.dedup_by_key(|e| e.0);
+    edges
+}
+
+/// The hull faces (`tet * 4 + corner opposite`), in tet order.
+fn hull_faces(mesh: &TetMesh) -> Vec<u32> {
+    (0..mesh.tet_count() as u32)
+        .into_par_iter()
+        .flat_map_iter(|t| {
+            (0..4u32).filter_map(move |i| {
+                (mesh.neighbours(t as usize)[i as usize] == NO_NEIGHBOUR).then_some(t * 4 + i)
+            })
+        })
+        .collect()
+}
+
+/// The corners of hull face `f`, counter-clockwise seen from outside.
+fn face_corners(mesh: &TetMesh, f: u32) -> [u32; 3] {
+    let tv = mesh.tet((f / 4) as usize);
+    FACE_OUTWARD[(f % 4) as usize].map(|i| tv[i])
+}
+
+/// The surface vertices on the hull: active hull faces (`W_f`), active hull edges (`U_e`)
+/// and marked hull points, by what they stand for.
+struct HullVertices {
+    face: HashMap<u32, u32>,
+    edge: HashMap<u64, u32>,
+    point: HashMap<u32, u32>,
+}
+
+impl HullVertices {
+    /// Numbers the hull vertices of `hull_faces` after those in `roles`, adding theirs.
+    fn new(
+        mesh: &TetMesh,
+        marked: &[bool],
+        hull_faces: &[u32],
+        roles: &mut Vec<VertexRole>,
+    ) -> Self {
+        let mut face_vertex: HashMap<u32, u32> = HashMap::new();
+        let mut edge_vertex: HashMap<u64, u32> = HashMap::new();
+        let mut point_vertex: HashMap<u32, u32> = HashMap::new();
+        for &f in hull_faces {
+            let c = face_corners(mesh, f);
+            let m = c.iter().filter(|&&v| marked[v as usize]).count();
+            if m > 0 {
+                for &v in &c {
+                    if marked[v as usize] {
+                        point_vertex.entry(v).or_insert_with(|| {
+                            roles.push(VertexRole::HullPoint { point: v });
+                            roles.len() as u32 - 1
+                        });
+                    }
+                }
+            }
+            if m == 0 || m == 3 {
+                continue;
+            }
+            face_vertex.insert(f, roles.len() as u32);
+            roles.push(VertexRole::HullFace { face: f });
+            for k in 0..3 {
+                let (a, b) = (c[k], c[(k + 1) % 3]);
+                if marked[a as usize] != marked[b as usize] {
+                    edge_vertex.entry(edge_key(a, b)).or_insert_with(|| {
+                        let (a, b) = if marked[a as usize] { (a, b) } else { (b, a) };
+                        roles.push(VertexRole::HullEdge { a, b });
+                        roles.len() as u32 - 1
+                    });
+                }
+            }
+        }
+        Self {
+            face: face_vertex,
+            edge: edge_vertex,
+            point: point_vertex,
+        }
+    }
+}
+
+/// The dual polygon of the active edge `key` (held by tetrahedron `start`), counter-clockwise
+/// around the edge oriented marked -> unmarked: its corners, the edge as (marked, unmarked)
+/// and whether it closes through the hull.
+fn dual_polygon(
+    mesh: &TetMesh,
+    marked: &[bool],
+    tet_vertex: &[u32],
+    hull: &HullVertices,
+    key: u64,
+    start: u32,
+) -> (Vec<u32>, (u32, u32), bool) {
+    let (lo, hi) = ((key >> 32) as u32, key as u32);
+    let (a, b) = if marked[lo as usize] {
+        (lo, hi)
+    } else {
+        (hi, lo)
+    };
+    let (c0, d0) = oriented_around(&mesh.tet(start as usize), a, b);
+    let mut ring = Vec::with_capacity(8);
+    // Walk counter-clockwise from `start`; an interior edge closes the ring.
+    let (mut t, mut c, mut d) = (start, c0, d0);
+    let mut end_face = None;
+    loop {
+        ring.push(tet_vertex[t as usize]);
+        let k = corner_index(&mesh.tet(t as usize), c);
+        let n = mesh.neighbours(t as usize)[k];
+        if n == NO_NEIGHBOUR {
+            end_face = Some(t * 4 + k as u32);
+            break;
+        }
+        (t, c, d) = (n / 4, d, mesh.tet((n / 4) as usize)[(n % 4) as usize]);
+        if t == start {
+            break;
+        }
+    }
+    let Some(end_face) = end_face else {
+        return (ring, (a, b), false);
+    };
+    // A hull edge: walk clockwise from `start` to the other hull face, then close the
+    // chain through W_f, U_e, W_f' (capping.md).
+    let mut before = Vec::new();
+    let (mut t, mut c, mut d) = (start, c0, d0);
+    let start_face = loop {
+        let l = corner_index(&mesh.tet(t as usize), d);
+        let n = mesh.neighbours(t as usize)[l];
+        if n == NO_NEIGHBOUR {
+            break t * 4 + l as u32;
+        }
+        (t, c, d) = (n / 4, mesh.tet((n / 4) as usize)[(n % 4) as usize], c);
+        before.push(tet_vertex[t as usize]);
+    };
+    before.reverse();
+    before.extend_from_slice(&ring);
+    let mut ring = before;
+    ring.push(hull.face[&end_face]);
+    ring.push(hull.edge[&edge_key(a, b)]);
+    ring.push(hull.face[&start_face]);
+    (ring, (a, b), true)
+}
+
+/// Adds the caps: the marked part of every hull triangle, counter-clockwise seen from
+/// outside.
+fn push_caps(
+    topo: &mut Topology,
+    mesh: &TetMesh,
+    marked: &[bool],
+    hull_faces: &[u32],
+    hull: &HullVertices,
+) {
+    for &f in hull_faces {
+        let c = face_corners(mesh, f);
         let m = c.iter().filter(|&&v| marked[v as usize]).count();
         if m == 0 {
             continue;
@@ -266,20 +323,18 @@ pub fn build(mesh: &TetMesh, marked: &[bool]) -> Topology {
             let (p, q) = (c[k], c[(k + 1) % 3]);
             let (mp, mq) = (marked[p as usize], marked[q as usize]);
             if mp {
-                topo.corners.push(point_vertex[&p]);
+                topo.corners.push(hull.point[&p]);
             }
             if mp != mq {
-                topo.corners.push(edge_vertex[&edge_key(p, q)]);
+                topo.corners.push(hull.edge[&edge_key(p, q)]);
                 if mp {
-                    topo.corners.push(face_vertex[&f]);
+                    topo.corners.push(hull.face[&f]);
                 }
             }
         }
         topo.starts.push(topo.corners.len() as u32);
         topo.kinds.push(PolygonKind::Cap);
     }
-    topo.roles = roles;
-    topo
 }
 
 /// Positions of the hull vertices (`W_f`, `U_e`, hull points): `U_e` is the crossing on its

@@ -14,6 +14,8 @@ pub mod mt;
 pub mod place;
 pub mod relax;
 
+use std::borrow::Cow;
+
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -238,254 +240,36 @@ pub fn extract_shell_relaxed(
     }
     progress.report(Stage::Contour, CURVATURE_SHARE.0);
 
-    let mut positions = vec![DVec3::ZERO; topo.roles.len()];
-    // 0/1 placements work on the signed distance to the other class, whose zero level set
-    // separates the same tetrahedra (module `distance`).
-    let field;
-    let (place_values, place_threshold) =
-        if matches!(placement, Placement::Distance | Placement::Curvature { .. }) {
-            field = distance::signed_class_distance(mesh, &marked);
-            (field.as_slice(), 0.0)
-        } else {
-            (values, threshold)
-        };
+    let recipe = placement.recipe();
+    let (field, level) = placement_field(mesh, values, threshold, &marked, recipe);
     let regions = mt::marked_regions(mesh, &marked);
-    // The field the balanced placements work on: positive exactly at marked vertices.
-    let grade_field: Vec<f64>;
-    let balance_field = if matches!(placement, Placement::Ibc | Placement::Coi) {
-        grade_field = values.par_iter().map(|&v| v - threshold).collect();
-        &grade_field
-    } else {
-        place_values
-    };
-    let balanced_placement = placement != Placement::Midpoint;
-    let relaxed = matches!(placement, Placement::Ibc | Placement::Coi) && relax_sweeps > 0;
-    // The unbalanced placement; a balanced one starts from it to choose how each polygon is
-    // cut.
-    let (first_values, first_threshold) = if balanced_placement {
-        (balance_field, 0.0)
-    } else {
-        (place_values, place_threshold)
-    };
-    place_vertices(
-        &topo,
+    let ex = Extraction {
         mesh,
-        first_values,
-        &marked,
-        first_threshold,
-        placement,
-        &mut positions,
-    );
-    let edge_ends = |a: u32, b: u32| (mesh.points[a as usize], mesh.points[b as usize]);
-    let mut corner_field = Vec::new();
-    let mut alpha = Vec::new();
-    let mut balance_plan = None;
-    if balanced_placement {
-        // Each body keeps its placement's shape and the volume of the linear
-        // interpolation's superlevel set, the volume marching tetrahedra encloses on the
-        // same tetrahedra (for 0/1 data: crossings at edge midpoints). Unbalanced, DMT's
-        // polygons are chords across convex surfaces (grade bodies 0.1-0.3 points smaller
-        // than MT's) and the distance field leans inwards at convex edges (0/1 bodies
-        // 3.6-8.9% small); docs/dmt.md. The balance is solved on exactly the triangles of
-        // the cut chosen for the unbalanced vertices (a fan of the twisted polygons between
-        // drill holes misjudges a body's volume by tens of percent).
-        let target = mt::region_volumes(mesh, values, threshold, &regions);
-        let plan = plan_triangulation(&topo, &positions, triangulation, &edge_ends, None);
-        // IbC and CoI as weights on each vertex's crossings; the relaxation changes the
-        // weights for shape, and the balance keeps them.
-        let base_weights = |c: &SortedCorners| {
-            if placement == Placement::Coi {
-                place::coi_weights(c, 0.0)
-            } else {
-                place::ibc_weights(c, 0.0)
-            }
-        };
-        let mut weights: Vec<[f64; 4]> = Vec::new();
-        if relaxed {
-            let paper: Vec<[f64; 4]> = (0..topo.active_tets)
-                .into_par_iter()
-                .map(|v| base_weights(&relax::corners(&topo, mesh, balance_field, v)))
-                .collect();
-            weights = paper.clone();
-            let crossing =
-                |a: u32, b: u32| hull_crossing(mesh, balance_field, 0.0, placement, a, b);
-            let surface = relax::Surface {
-                topo: &topo,
-                mesh,
-                field: balance_field,
-                plan: &plan,
-                edge_crossing: &crossing,
-                edge_ends: &edge_ends,
-            };
-            // The polygons keep the cut chosen for the paper's positions: the relaxation
-            // judges its moves on it and keeps its edges passing through (a cut chosen
-            // again for the moved vertices changed the sliver share by under 0.01 at
-            // twice the cost; docs/dmt.md).
-            relax::relax(&surface, &mut weights, &mut positions, relax_sweeps);
-            // The relaxed weights as factors on the rule's own: the rule keeps its
-            // response to the balanced values (IbC's weights depend on them; with fixed
-            // weights the balance of bodies in the long tetrahedra between drill holes can
-            // fail).
-            weights.par_iter_mut().zip(&paper).for_each(|(w, base)| {
-                for (x, &b) in w.iter_mut().zip(base) {
-                    *x = if b > 0.0 { *x / b } else { 0.0 };
-                }
-            });
-        }
-        let balance = |weights: &[[f64; 4]], plan: &Plan, positions: &mut [DVec3]| {
-            let by_weights = |v: usize, c: &SortedCorners| {
-                let base = base_weights(c);
-                let f = weights[v];
-                place::weighted(c, 0.0, &std::array::from_fn(|i| base[i] * f[i]))
-            };
-            let by_coi = |_: usize, c: &SortedCorners| place::coi(c, 0.0);
-            let by_ibc = |_: usize, c: &SortedCorners| place::ibc(c, 0.0);
-            let rule: &(dyn Fn(usize, &SortedCorners) -> DVec3 + Sync) = if relaxed {
-                &by_weights
-            } else if placement == Placement::Coi {
-                &by_coi
-            } else {
-                &by_ibc
-            };
-            distance::place_balanced(
-                &topo,
-                mesh,
-                &marked,
-                balance_field,
-                &regions,
-                positions,
-                distance::Balance {
-                    target: &target,
-                    rule,
-                    steps: BALANCE_STEPS,
-                    plan,
-                },
-            )
-        };
-        let mut balanced = balance(&weights, &plan, &mut positions);
-        // A relaxed body whose balance finds no root (in the long, flat tetrahedra between
-        // drill holes the relaxation can tip a small body over, or leave a large one out
-        // of the balance's reach) is placed at the paper's positions and balanced again.
-        if relaxed {
-            let failed: Vec<bool> = balanced
-                .missed
-                .iter()
-                .map(|&m| m > RELAXED_BALANCE_MISS)
-                .collect();
-            if failed.contains(&true) {
-                weights
-                    .par_iter_mut()
-                    .zip(&balanced.vertex_region)
-                    .for_each(|(w, &r)| {
-                        if failed[r as usize] {
-                            *w = [1.0; 4];
-                        }
-                    });
-                balanced = balance(&weights, &plan, &mut positions);
-            }
-        }
-        // Polygons whose cut no longer suits the balanced vertices are cut again, and the
-        // balance solved again on the new cut, so the output triangles carry the target
-        // volumes (the curvature placement moves its vertices after the balance and is cut
-        // again once, below).
-        let mut plan = plan;
-        if triangulation == Triangulation::MaxMinAngle
-            && !matches!(placement, Placement::Curvature { .. })
-        {
-            let crossing = |a: u32, b: u32| {
-                distance::balanced_crossing(mesh, balance_field, &regions, &balanced.alpha, a, b)
-            };
-            let realized = plan.realize(&topo, positions.clone(), &crossing);
-            let unsuited = plan.unsuited(&topo, &realized, &edge_ends);
-            if unsuited.contains(&true) {
-                plan = plan_triangulation(
-                    &topo,
-                    &positions,
-                    triangulation,
-                    &edge_ends,
-                    Some((&plan, &unsuited)),
-                );
-                balanced = balance(&weights, &plan, &mut positions);
-            }
-        }
-        corner_field = balanced.corner_field;
-        alpha = balanced.alpha;
-
-        balance_plan = Some(plan);
-    }
-    if let Placement::Curvature { lattice } = placement {
-        curvature::optimize(
-            &topo,
-            mesh,
-            &corner_field,
-            &mut positions,
-            lattice,
-            progress,
-        )?;
+        topo: &topo,
+        marked: &marked,
+        regions: &regions,
+        field: &field,
+        level,
+        recipe,
+        triangulation,
+    };
+    let mut positions = vec![DVec3::ZERO; topo.roles.len()];
+    place_vertices(&ex, &mut positions);
+    let balanced = recipe
+        .balanced
+        .then(|| balance_bodies(&ex, values, threshold, relax_sweeps, &mut positions));
+    if let Some(lattice) = recipe.curvature_lattice {
+        // The search keeps to a band around the balanced field's zero.
+        let corner_field = balanced.as_ref().map_or(&[][..], |b| &b.corner_field);
+        curvature::optimize(&topo, mesh, corner_field, &mut positions, lattice, progress)?;
     }
     if progress.is_cancelled() {
         return Err(DmtError::Cancelled);
     }
     progress.report(Stage::Contour, CURVATURE_SHARE.1);
 
-    let edge_crossing = |a: u32, b: u32| {
-        if alpha.is_empty() {
-            hull_crossing(mesh, place_values, place_threshold, placement, a, b)
-        } else {
-            distance::balanced_crossing(mesh, balance_field, &regions, &alpha, a, b)
-        }
-    };
-    let (positions, triangles, polygon_of) = match balance_plan {
-        // The output keeps the cut the volumes were balanced on, except where it no longer
-        // suits the final vertices.
-        Some(plan) => {
-            let base = positions.len();
-            let mut realized = plan.realize(&topo, positions, &edge_crossing);
-            let unsuited = if triangulation == Triangulation::MaxMinAngle {
-                plan.unsuited(&topo, &realized, &edge_ends)
-            } else {
-                Vec::new()
-            };
-            if unsuited.contains(&true) {
-                realized.truncate(base);
-                let plan = plan_triangulation(
-                    &topo,
-                    &realized,
-                    triangulation,
-                    &edge_ends,
-                    Some((&plan, &unsuited)),
-                );
-                let positions = plan.realize(&topo, realized, &edge_crossing);
-                (positions, plan.triangles, plan.polygon_of)
-            } else {
-                (realized, plan.triangles, plan.polygon_of)
-            }
-        }
-        None => triangulate(&topo, positions, triangulation, &edge_crossing, &edge_ends),
-    };
-    // A body is one connected piece of marked material: its outer shell together with the
-    // shells of its cavities (a surface-connectivity split would make each cavity a body
-    // of negative volume).
-    let label: Vec<u32> = polygon_of
-        .iter()
-        .map(|&k| regions[polygon_marked_point(&topo, k as usize) as usize])
-        .collect();
-    let mut bodies = split_bodies(&topo, &positions, &triangles, &label);
-    // A closed, consistently wound surface around marked material encloses a positive
-    // volume; on the long, flat tetrahedra between drill holes a DMT surface can still
-    // fold over itself. Such a body becomes the marching-tetrahedra surface of the same
-    // marked material (embedded by construction), flagged `mt_fallback`.
-    if bodies.iter().any(|b| b.volume <= 0.0) {
-        let mut mt_bodies = mt::marching_tetrahedra(mesh, values, threshold).bodies;
-        for body in bodies.iter_mut().filter(|b| b.volume <= 0.0) {
-            if let Some(i) = mt_bodies.iter().position(|m| m.region == body.region) {
-                let mut replacement = mt_bodies.swap_remove(i);
-                replacement.mt_fallback = true;
-                *body = replacement;
-            }
-        }
-        bodies.sort_by(|a, b| b.volume.total_cmp(&a.volume));
-    }
+    let (positions, triangles, polygon_of) = output_triangles(&ex, positions, balanced);
+    let bodies = bodies_of_material(&ex, values, threshold, &positions, &triangles, &polygon_of);
     let quality = measure::quality(
         bodies
             .iter()
@@ -507,6 +291,361 @@ pub fn extract_shell_relaxed(
     })
 }
 
+/// What the extraction does for a placement: the one place where placements differ, so a
+/// new placement is one more arm of [`Placement::recipe`].
+#[derive(Clone, Copy)]
+struct Recipe {
+    /// The vertices are placed on the signed distance to the other class (0/1 data, whose
+    /// values carry no position between samples; module `distance`) instead of the values.
+    on_class_distance: bool,
+    /// The rule placing a DMT vertex among its tetrahedron's corners, at a level of the
+    /// field.
+    rule: fn(&SortedCorners, f64) -> DVec3,
+    /// The rule as weights on the tetrahedron's crossings, for the placements the shape
+    /// relaxation moves ([`relax`]; `None`: not relaxed).
+    crossing_weights: Option<fn(&SortedCorners, f64) -> [f64; 4]>,
+    /// Each body is balanced to the volume marching tetrahedra gives on the same
+    /// tetrahedra (docs/dmt.md, *Volume balance*).
+    balanced: bool,
+    /// Hull vertices sit at their edge's midpoint instead of its crossing.
+    hull_midpoints: bool,
+    /// The lattice of the curvature search that moves the balanced vertices (their
+    /// polygons are then cut again once, at the output).
+    curvature_lattice: Option<u32>,
+}
+
+impl Placement {
+    /// How the extraction treats this placement.
+    fn recipe(self) -> Recipe {
+        let plain = Recipe {
+            on_class_distance: false,
+            rule: place::ibc,
+            crossing_weights: None,
+            balanced: true,
+            hull_midpoints: false,
+            curvature_lattice: None,
+        };
+        match self {
+            Placement::Ibc => Recipe {
+                crossing_weights: Some(place::ibc_weights),
+                ..plain
+            },
+            Placement::Coi => Recipe {
+                rule: place::coi,
+                crossing_weights: Some(place::coi_weights),
+                ..plain
+            },
+            Placement::Midpoint => Recipe {
+                rule: place::midpoint,
+                balanced: false,
+                hull_midpoints: true,
+                ..plain
+            },
+            // IbC on the distance field; the curvature search starts from there.
+            Placement::Distance => Recipe {
+                on_class_distance: true,
+                ..plain
+            },
+            Placement::Curvature { lattice } => Recipe {
+                on_class_distance: true,
+                curvature_lattice: Some(lattice),
+                ..plain
+            },
+        }
+    }
+}
+
+/// The field a placement's vertices are placed on, and its level: the signed distance to
+/// the other class at 0, or the values, moved to level 0 for a balanced placement (the
+/// balance scales the field's two sides about 0).
+fn placement_field<'a>(
+    mesh: &TetMesh,
+    values: &'a [f64],
+    threshold: f64,
+    marked: &[bool],
+    recipe: Recipe,
+) -> (Cow<'a, [f64]>, f64) {
+    if recipe.on_class_distance {
+        // Its zero level set separates the same tetrahedra as the classification.
+        (distance::signed_class_distance(mesh, marked).into(), 0.0)
+    } else if recipe.balanced {
+        let grade: Vec<f64> = values.par_iter().map(|&v| v - threshold).collect();
+        (grade.into(), 0.0)
+    } else {
+        (values.into(), threshold)
+    }
+}
+
+/// What every step of one extraction reads.
+struct Extraction<'a> {
+    mesh: &'a TetMesh,
+    topo: &'a Topology,
+    marked: &'a [bool],
+    /// The [`mt::marked_regions`] number of each marked mesh vertex.
+    regions: &'a [u32],
+    /// The field the vertices are placed on (one value per mesh vertex) and its level
+    /// ([`placement_field`]).
+    field: &'a [f64],
+    level: f64,
+    recipe: Recipe,
+    triangulation: Triangulation,
+}
+
+impl Extraction<'_> {
+    /// The end points of the Delaunay edge `a -> b`.
+    fn edge_ends(&self, a: u32, b: u32) -> (DVec3, DVec3) {
+        (self.mesh.points[a as usize], self.mesh.points[b as usize])
+    }
+
+    /// The surface point on the active edge from marked vertex `a` to unmarked `b` before
+    /// any balance: the field's crossing, or the midpoint.
+    fn crossing(&self, a: u32, b: u32) -> DVec3 {
+        hull_crossing(
+            self.mesh,
+            self.field,
+            self.level,
+            self.recipe.hull_midpoints,
+            a,
+            b,
+        )
+    }
+
+    /// The crossing on the active edge `a -> b` with its body's balance `alpha`.
+    fn balanced_crossing(&self, alpha: &[f64], a: u32, b: u32) -> DVec3 {
+        distance::balanced_crossing(self.mesh, self.field, self.regions, alpha, a, b)
+    }
+}
+
+/// The balanced vertices and the cut their volumes were balanced on.
+struct BalancedCut {
+    plan: Plan,
+    /// The balanced field at the corners of each active tetrahedron.
+    corner_field: Vec<[f64; 4]>,
+    /// Each body's balance (see [`distance::place_balanced`]).
+    alpha: Vec<f64>,
+}
+
+/// Balances every body to the volume marching tetrahedra encloses on the same tetrahedra
+/// (the linear interpolation's superlevel set; for 0/1 data, crossings at edge midpoints),
+/// relaxing IbC and CoI vertices for shape first; `positions` hold the unbalanced
+/// placement and are left balanced.
+///
+/// Why: unbalanced, DMT's polygons are chords across convex surfaces (grade bodies 0.1-0.3
+/// points smaller than MT's) and the distance field leans inwards at convex edges (0/1
+/// bodies 3.6-8.9% small); docs/dmt.md. The balance is solved on exactly the triangles of
+/// the cut chosen for the unbalanced vertices (a fan of the twisted polygons between drill
+/// holes misjudges a body's volume by tens of percent).
+fn balance_bodies(
+    ex: &Extraction,
+    values: &[f64],
+    threshold: f64,
+    relax_sweeps: usize,
+    positions: &mut [DVec3],
+) -> BalancedCut {
+    let target = mt::region_volumes(ex.mesh, values, threshold, ex.regions);
+    let edge_ends = |a: u32, b: u32| ex.edge_ends(a, b);
+    let mut plan = plan_triangulation(ex.topo, positions, ex.triangulation, &edge_ends, None);
+    let mut factors = match ex.recipe.crossing_weights {
+        Some(rule_weights) if relax_sweeps > 0 => Some(relaxed_weight_factors(
+            ex,
+            &plan,
+            rule_weights,
+            relax_sweeps,
+            positions,
+        )),
+        _ => None,
+    };
+    let mut balanced = balance_on(ex, &target, factors.as_deref(), &plan, positions);
+    // A relaxed body whose balance finds no root (in the long, flat tetrahedra between
+    // drill holes the relaxation can tip a small body over, or leave a large one out of
+    // the balance's reach) is placed at the paper's positions and balanced again.
+    if let Some(factors) = &mut factors
+        && reset_unbalanced_bodies(factors, &balanced)
+    {
+        balanced = balance_on(ex, &target, Some(factors), &plan, positions);
+    }
+    // Polygons whose cut no longer suits the balanced vertices are cut again, and the
+    // balance solved again on the new cut, so the output triangles carry the target
+    // volumes (the curvature placement moves its vertices after the balance and is cut
+    // again once, at the output).
+    if ex.recipe.curvature_lattice.is_none() {
+        let crossing = |a: u32, b: u32| ex.balanced_crossing(&balanced.alpha, a, b);
+        let realized = plan.realize(ex.topo, positions.to_vec(), &crossing);
+        if let Some(recut) = plan.cut_again_where_unsuited(ex, &realized) {
+            plan = recut;
+            balanced = balance_on(ex, &target, factors.as_deref(), &plan, positions);
+        }
+    }
+    BalancedCut {
+        plan,
+        corner_field: balanced.corner_field,
+        alpha: balanced.alpha,
+    }
+}
+
+/// Relaxes the DMT vertices for shape ([`relax::relax`], moving `positions`) and returns
+/// their weights on their crossings as factors on the rule's own weights: the rule keeps
+/// its response to the balanced values (IbC's weights depend on them; with fixed weights
+/// the balance of bodies in the long tetrahedra between drill holes can fail).
+fn relaxed_weight_factors(
+    ex: &Extraction,
+    plan: &Plan,
+    rule_weights: fn(&SortedCorners, f64) -> [f64; 4],
+    sweeps: usize,
+    positions: &mut [DVec3],
+) -> Vec<[f64; 4]> {
+    let paper: Vec<[f64; 4]> = (0..ex.topo.active_tets)
+        .into_par_iter()
+        .map(|v| rule_weights(&relax::corners(ex.topo, ex.mesh, ex.field, v), 0.0))
+        .collect();
+    let mut weights = paper.clone();
+    let crossing = |a: u32, b: u32| ex.crossing(a, b);
+    let edge_ends = |a: u32, b: u32| ex.edge_ends(a, b);
+    let surface = relax::Surface {
+        topo: ex.topo,
+        mesh: ex.mesh,
+        field: ex.field,
+        plan,
+        edge_crossing: &crossing,
+        edge_ends: &edge_ends,
+    };
+    // The polygons keep the cut chosen for the paper's positions: the relaxation judges
+    // its moves on it and keeps its edges passing through (a cut chosen again for the
+    // moved vertices changed the sliver share by under 0.01 at twice the cost;
+    // docs/dmt.md).
+    relax::relax(&surface, &mut weights, positions, sweeps);
+    weights.par_iter_mut().zip(&paper).for_each(|(w, base)| {
+        for (x, &b) in w.iter_mut().zip(base) {
+            *x = if b > 0.0 { *x / b } else { 0.0 };
+        }
+    });
+    weights
+}
+
+/// Puts the vertices of every body whose relaxed balance missed its target back at the
+/// paper's weights (factors 1); whether there was any.
+fn reset_unbalanced_bodies(factors: &mut [[f64; 4]], balanced: &distance::Balanced) -> bool {
+    let failed: Vec<bool> = balanced
+        .missed
+        .iter()
+        .map(|&m| m > RELAXED_BALANCE_MISS)
+        .collect();
+    if !failed.contains(&true) {
+        return false;
+    }
+    factors
+        .par_iter_mut()
+        .zip(&balanced.vertex_region)
+        .for_each(|(w, &r)| {
+            if failed[r as usize] {
+                *w = [1.0; 4];
+            }
+        });
+    true
+}
+
+/// One volume balance of every body on the triangles of `plan`, placing the DMT vertices
+/// by the placement's rule, or by its crossing weights times the relaxation's `factors`.
+fn balance_on(
+    ex: &Extraction,
+    target: &[f64],
+    factors: Option<&[[f64; 4]]>,
+    plan: &Plan,
+    positions: &mut [DVec3],
+) -> distance::Balanced {
+    let solve = |rule: &(dyn Fn(usize, &SortedCorners) -> DVec3 + Sync),
+                 positions: &mut [DVec3]| {
+        distance::place_balanced(
+            ex.topo,
+            ex.mesh,
+            ex.marked,
+            ex.field,
+            ex.regions,
+            positions,
+            distance::Balance {
+                target,
+                rule,
+                steps: BALANCE_STEPS,
+                plan,
+            },
+        )
+    };
+    match (factors, ex.recipe.crossing_weights) {
+        (Some(factors), Some(rule_weights)) => solve(
+            &|v: usize, c: &SortedCorners| {
+                let base = rule_weights(c, 0.0);
+                let f = factors[v];
+                place::weighted(c, 0.0, &std::array::from_fn(|i| base[i] * f[i]))
+            },
+            positions,
+        ),
+        _ => {
+            let rule = ex.recipe.rule;
+            solve(&|_: usize, c: &SortedCorners| rule(c, 0.0), positions)
+        }
+    }
+}
+
+/// The output triangles: the cut the volumes were balanced on, except where it no longer
+/// suits the final vertices, or a fresh cut for an unbalanced placement. Returns the
+/// positions (surface vertices, then added ones), the triangles and the polygon each cuts.
+fn output_triangles(
+    ex: &Extraction,
+    positions: Vec<DVec3>,
+    balanced: Option<BalancedCut>,
+) -> (Vec<DVec3>, Vec<[u32; 3]>, Vec<u32>) {
+    let edge_ends = |a: u32, b: u32| ex.edge_ends(a, b);
+    let Some(BalancedCut { plan, alpha, .. }) = balanced else {
+        let crossing = |a: u32, b: u32| ex.crossing(a, b);
+        return triangulate(ex.topo, positions, ex.triangulation, &crossing, &edge_ends);
+    };
+    let crossing = |a: u32, b: u32| ex.balanced_crossing(&alpha, a, b);
+    let base = positions.len();
+    let mut realized = plan.realize(ex.topo, positions, &crossing);
+    match plan.cut_again_where_unsuited(ex, &realized) {
+        Some(recut) => {
+            realized.truncate(base);
+            let positions = recut.realize(ex.topo, realized, &crossing);
+            (positions, recut.triangles, recut.polygon_of)
+        }
+        None => (realized, plan.triangles, plan.polygon_of),
+    }
+}
+
+/// The bodies of the surface: one per connected piece of marked material, its outer shell
+/// together with the shells of its cavities (a surface-connectivity split would make each
+/// cavity a body of negative volume); largest first.
+fn bodies_of_material(
+    ex: &Extraction,
+    values: &[f64],
+    threshold: f64,
+    positions: &[DVec3],
+    triangles: &[[u32; 3]],
+    polygon_of: &[u32],
+) -> Vec<Body> {
+    let label: Vec<u32> = polygon_of
+        .iter()
+        .map(|&k| ex.regions[polygon_marked_point(ex.topo, k as usize) as usize])
+        .collect();
+    let mut bodies = split_bodies(ex.topo, positions, triangles, &label);
+    // A closed, consistently wound surface around marked material encloses a positive
+    // volume; on the long, flat tetrahedra between drill holes a DMT surface can still
+    // fold over itself. Such a body becomes the marching-tetrahedra surface of the same
+    // marked material (embedded by construction), flagged `mt_fallback`.
+    if bodies.iter().any(|b| b.volume <= 0.0) {
+        let mut mt_bodies = mt::marching_tetrahedra(ex.mesh, values, threshold).bodies;
+        for body in bodies.iter_mut().filter(|b| b.volume <= 0.0) {
+            if let Some(i) = mt_bodies.iter().position(|m| m.region == body.region) {
+                let mut replacement = mt_bodies.swap_remove(i);
+                replacement.mt_fallback = true;
+                *body = replacement;
+            }
+        }
+        bodies.sort_by(|a, b| b.volume.total_cmp(&a.volume));
+    }
+    bodies
+}
+
 /// The checks every extraction makes on its inputs: one finite value per mesh vertex and a
 /// finite threshold.
 pub fn check_inputs(mesh: &TetMesh, values: &[f64], threshold: f64) -> Result<(), DmtError> {
@@ -525,24 +664,11 @@ pub fn check_inputs(mesh: &TetMesh, values: &[f64], threshold: f64) -> Result<()
     Ok(())
 }
 
-/// Places every surface vertex: DMT vertices by the placement rule, hull vertices by the
-/// crossing on their edge (midpoints for the midpoint rule).
-fn place_vertices(
-    topo: &Topology,
-    mesh: &TetMesh,
-    values: &[f64],
-    marked: &[bool],
-    threshold: f64,
-    placement: Placement,
-    positions: &mut [DVec3],
-) {
-    let rule: fn(&SortedCorners, f64) -> DVec3 = match placement {
-        Placement::Ibc => place::ibc,
-        Placement::Coi => place::coi,
-        Placement::Midpoint => place::midpoint,
-        // On the distance field; the curvature search starts from there.
-        Placement::Distance | Placement::Curvature { .. } => place::ibc,
-    };
+/// Places every surface vertex: DMT vertices by the placement's rule on its field, hull
+/// vertices by the crossing on their edge (midpoints for the midpoint rule).
+fn place_vertices(ex: &Extraction, positions: &mut [DVec3]) {
+    let (mesh, topo) = (ex.mesh, ex.topo);
+    let rule = ex.recipe.rule;
     positions[..topo.active_tets]
         .par_iter_mut()
         .zip(&topo.roles[..topo.active_tets])
@@ -553,28 +679,29 @@ fn place_vertices(
             let tv = mesh.tet(tet as usize);
             let corners = SortedCorners::new(
                 tv.map(|v| mesh.points[v as usize]),
-                tv.map(|v| values[v as usize]),
+                tv.map(|v| ex.field[v as usize]),
             );
-            *p = rule(&corners, threshold);
+            *p = rule(&corners, ex.level);
         });
-    let crossing = |a: u32, b: u32| hull_crossing(mesh, values, threshold, placement, a, b);
-    extract::place_hull_vertices(topo, mesh, marked, &crossing, positions);
+    let crossing = |a: u32, b: u32| ex.crossing(a, b);
+    extract::place_hull_vertices(topo, mesh, ex.marked, &crossing, positions);
 }
 
 /// The surface point on the active edge from marked vertex `a` to unmarked `b`: the
-/// linear-interpolation crossing, or the midpoint for the midpoint rule.
+/// linear-interpolation crossing, or the edge's midpoint.
 fn hull_crossing(
     mesh: &TetMesh,
     values: &[f64],
     threshold: f64,
-    placement: Placement,
+    midpoint: bool,
     a: u32,
     b: u32,
 ) -> DVec3 {
     let (pa, pb) = (mesh.points[a as usize], mesh.points[b as usize]);
-    match placement {
-        Placement::Midpoint => (pa + pb) * 0.5,
-        _ => place::crossing(pb, pa, values[b as usize], values[a as usize], threshold),
+    if midpoint {
+        (pa + pb) * 0.5
+    } else {
+        place::crossing(pb, pa, values[b as usize], values[a as usize], threshold)
     }
 }
 
@@ -684,6 +811,27 @@ impl Plan {
             .collect()
     }
 
+    /// The plan with the polygons whose [`Triangulation::MaxMinAngle`] cut no longer suits
+    /// the `realized` positions ([`Plan::unsuited`]) cut again, the others kept; `None`
+    /// when every cut still suits them or the triangulation is another.
+    fn cut_again_where_unsuited(&self, ex: &Extraction, realized: &[DVec3]) -> Option<Plan> {
+        if ex.triangulation != Triangulation::MaxMinAngle {
+            return None;
+        }
+        let edge_ends = |a: u32, b: u32| ex.edge_ends(a, b);
+        let unsuited = self.unsuited(ex.topo, realized, &edge_ends);
+        if !unsuited.contains(&true) {
+            return None;
+        }
+        Some(plan_triangulation(
+            ex.topo,
+            &realized[..self.base],
+            ex.triangulation,
+            &edge_ends,
+            Some((self, &unsuited)),
+        ))
+    }
+
     /// `positions` (the surface vertices) followed by the added vertices.
     pub fn realize(
         &self,
@@ -714,154 +862,200 @@ fn plan_triangulation(
     edge_ends: &dyn Fn(u32, u32) -> (DVec3, DVec3),
     keep: Option<(&Plan, &[bool])>,
 ) -> Plan {
-    let base = positions.len();
-    let mut added = Vec::new();
-    let mut add = |a: Added| {
-        added.push(a);
-        (base + added.len() - 1) as u32
-    };
-    let mut triangles = Vec::with_capacity(topo.corners.len() * 2);
-    let mut polygon_of = Vec::with_capacity(topo.corners.len() * 2);
+    let mut plan = PlanBuilder::new(positions.len(), topo.corners.len() * 2);
     let old_ranges = keep.map(|(old, _)| old.polygon_ranges(topo.polygon_count()));
     for k in 0..topo.polygon_count() {
         if let (Some((old, replan)), Some(ranges)) = (keep, &old_ranges)
             && !replan[k]
         {
-            debug_assert_eq!(old.base, base);
-            // At most one added vertex per polygon.
-            let mut mapped: Option<(u32, u32)> = None;
-            for t in &old.triangles[ranges[k]..ranges[k + 1]] {
-                triangles.push(t.map(|i| {
-                    if (i as usize) < base {
-                        return i;
-                    }
-                    match mapped {
-                        Some((from, to)) if from == i => to,
-                        _ => {
-                            let to = add(old.added[i as usize - base]);
-                            mapped = Some((i, to));
-                            to
-                        }
-                    }
-                }));
-            }
-            polygon_of.resize(triangles.len(), k as u32);
-            continue;
+            plan.copy_cut(old, &old.triangles[ranges[k]..ranges[k + 1]]);
+        } else {
+            let before = plan.triangles.len();
+            cut_polygon(&mut plan, topo, k, positions, triangulation, edge_ends);
+            debug_assert!(plan.triangles.len() > before);
         }
-        let poly = topo.polygon(k);
-        let n = poly.len();
-        let before = triangles.len();
-        let checked =
-            triangulation == Triangulation::MaxMinAngle && topo.kinds[k] == PolygonKind::Dual;
-        if n == 3 && !checked {
-            triangles.push([poly[0], poly[1], poly[2]]);
-            polygon_of.push(k as u32);
-            continue;
-        }
-        match topo.kinds[k] {
-            PolygonKind::Dual
-                if triangulation == Triangulation::EdgeCrossing && topo.dual_open[k] =>
-            {
-                // The crossing is already a corner (U_e): fan from it.
-                let u = n - 2;
-                for i in 1..n - 1 {
-                    triangles.push([poly[u], poly[(u + i) % n], poly[(u + i + 1) % n]]);
-                }
-            }
-            PolygonKind::Dual if triangulation == Triangulation::MaxMinAngle => {
-                let pts: Vec<DVec3> = poly.iter().map(|&v| positions[v as usize]).collect();
-                let (a, b) = topo.dual_edges[k];
-                if topo.dual_open[k] {
-                    // On the hull the crossing is a corner (U_e): a fan from it.
-                    let u = n - 2;
-                    for i in 1..n - 1 {
-                        triangles.push([poly[u], poly[(u + i) % n], poly[(u + i + 1) % n]]);
-                    }
-                    polygon_of.resize(triangles.len(), k as u32);
-                    continue;
-                }
-                // The dual polygon must separate its edge's marked end from its unmarked
-                // end: a triangulation is taken only if the edge passes through exactly one
-                // of its triangles, from the back to the front. On the long, flat
-                // tetrahedra between drill holes a triangulation can miss the edge
-                // altogether, and the body then folds (negative volumes measured on real
-                // drill holes). The star around the edge's crossing always separates.
-                let (pa, pb) = edge_ends(a, b);
-                let normal = newell_normal(&pts);
-                let (mut best, diagonals) = if n == 3 {
-                    let t = [0, 1, 2];
-                    let score = triangle_score(pts[0], pts[1], pts[2], normal);
-                    (CutScore::triangle(score), vec![t])
-                } else {
-                    max_min_angle_triangulation(&pts, normal)
-                };
-                if !best.folded() && !separates(pa, pb, diagonals.iter().map(|t| t.map(|i| pts[i])))
-                {
-                    best = CutScore::FOLDED;
-                }
-                let pts = &pts;
-                let star = |centre: DVec3| (0..n).map(move |i| [centre, pts[i], pts[(i + 1) % n]]);
-                let centroid = pts.iter().sum::<DVec3>() / n as f64;
-                let mut centroid_score = star(centroid)
-                    .map(|[c, p, q]| CutScore::triangle(triangle_score(c, p, q, normal)))
-                    .fold(CutScore::EMPTY, CutScore::join);
-                if !centroid_score.folded() && !separates(pa, pb, star(centroid)) {
-                    centroid_score = CutScore::FOLDED;
-                }
-                if !best.folded() && !centroid_score.better_than(best) {
-                    for [a, b, c] in diagonals {
-                        triangles.push([poly[a], poly[b], poly[c]]);
-                    }
-                } else {
-                    let c = add(if !centroid_score.folded() {
-                        Added::Centroid(k as u32)
-                    } else {
-                        Added::Crossing(a, b)
-                    });
-                    for i in 0..n {
-                        triangles.push([c, poly[i], poly[(i + 1) % n]]);
-                    }
-                }
-            }
-            PolygonKind::Dual if triangulation != Triangulation::Fan => {
-                let c = add(if triangulation == Triangulation::EdgeCrossing {
-                    let (a, b) = topo.dual_edges[k];
-                    Added::Crossing(a, b)
-                } else {
-                    Added::Centroid(k as u32)
-                });
-                for i in 0..n {
-                    triangles.push([c, poly[i], poly[(i + 1) % n]]);
-                }
-            }
-            PolygonKind::Dual => {
-                for i in 1..n - 1 {
-                    triangles.push([poly[0], poly[i], poly[i + 1]]);
-                }
-            }
-            PolygonKind::Cap => {
-                let w = poly
-                    .iter()
-                    .position(|&v| {
-                        matches!(
-                            topo.roles.get(v as usize),
-                            Some(VertexRole::HullFace { .. })
-                        )
-                    })
-                    .unwrap_or(0);
-                for i in 1..n - 1 {
-                    triangles.push([poly[w], poly[(w + i) % n], poly[(w + i + 1) % n]]);
-                }
-            }
-        }
-        polygon_of.resize(triangles.len(), k as u32);
-        debug_assert!(triangles.len() > before);
+        plan.polygon_of.resize(plan.triangles.len(), k as u32);
     }
     Plan {
-        triangles,
-        polygon_of,
-        added,
-        base,
+        triangles: plan.triangles,
+        polygon_of: plan.polygon_of,
+        added: plan.added,
+        base: plan.base,
+    }
+}
+
+/// A [`Plan`] while its polygons are cut, one after the other.
+struct PlanBuilder {
+    triangles: Vec<[u32; 3]>,
+    polygon_of: Vec<u32>,
+    added: Vec<Added>,
+    base: usize,
+}
+
+impl PlanBuilder {
+    fn new(base: usize, capacity: usize) -> Self {
+        Self {
+            triangles: Vec::with_capacity(capacity),
+            polygon_of: Vec::with_capacity(capacity),
+            added: Vec::new(),
+            base,
+        }
+    }
+
+    /// Adds a vertex; its index.
+    fn add(&mut self, a: Added) -> u32 {
+        self.added.push(a);
+        (self.base + self.added.len() - 1) as u32
+    }
+
+    /// A fan of the polygon from its corner `from`.
+    fn fan(&mut self, poly: &[u32], from: usize) {
+        let n = poly.len();
+        for i in 1..n - 1 {
+            self.triangles
+                .push([poly[from], poly[(from + i) % n], poly[(from + i + 1) % n]]);
+        }
+    }
+
+    /// A star of the polygon around vertex `centre`.
+    fn star(&mut self, centre: u32, poly: &[u32]) {
+        let n = poly.len();
+        for i in 0..n {
+            self.triangles.push([centre, poly[i], poly[(i + 1) % n]]);
+        }
+    }
+
+    /// Copies one polygon's `triangles` from plan `old` (of the same surface vertices),
+    /// adding its added vertex (at most one per polygon) again.
+    fn copy_cut(&mut self, old: &Plan, triangles: &[[u32; 3]]) {
+        debug_assert_eq!(old.base, self.base);
+        let base = self.base;
+        let mut mapped: Option<(u32, u32)> = None;
+        for t in triangles {
+            let t = t.map(|i| {
+                if (i as usize) < base {
+                    return i;
+                }
+                match mapped {
+                    Some((from, to)) if from == i => to,
+                    _ => {
+                        let to = self.add(old.added[i as usize - base]);
+                        mapped = Some((i, to));
+                        to
+                    }
+                }
+            });
+            self.triangles.push(t);
+        }
+    }
+}
+
+/// Cuts polygon `k` into triangles by `triangulation` (see [`plan_triangulation`]).
+fn cut_polygon(
+    plan: &mut PlanBuilder,
+    topo: &Topology,
+    k: usize,
+    positions: &[DVec3],
+    triangulation: Triangulation,
+    edge_ends: &dyn Fn(u32, u32) -> (DVec3, DVec3),
+) {
+    let poly = topo.polygon(k);
+    let n = poly.len();
+    let checked = triangulation == Triangulation::MaxMinAngle && topo.kinds[k] == PolygonKind::Dual;
+    if n == 3 && !checked {
+        plan.triangles.push([poly[0], poly[1], poly[2]]);
+        return;
+    }
+    match topo.kinds[k] {
+        // On the hull the crossing is already a corner (U_e): a fan from it.
+        PolygonKind::Dual
+            if topo.dual_open[k]
+                && matches!(
+                    triangulation,
+                    Triangulation::EdgeCrossing | Triangulation::MaxMinAngle
+                ) =>
+        {
+            plan.fan(poly, n - 2);
+        }
+        PolygonKind::Dual if triangulation == Triangulation::MaxMinAngle => {
+            cut_max_min_angle(plan, topo, k, positions, edge_ends);
+        }
+        PolygonKind::Dual if triangulation == Triangulation::Fan => plan.fan(poly, 0),
+        PolygonKind::Dual => {
+            let c = plan.add(if triangulation == Triangulation::EdgeCrossing {
+                let (a, b) = topo.dual_edges[k];
+                Added::Crossing(a, b)
+            } else {
+                Added::Centroid(k as u32)
+            });
+            plan.star(c, poly);
+        }
+        PolygonKind::Cap => {
+            let w = poly
+                .iter()
+                .position(|&v| {
+                    matches!(
+                        topo.roles.get(v as usize),
+                        Some(VertexRole::HullFace { .. })
+                    )
+                })
+                .unwrap_or(0);
+            plan.fan(poly, w);
+        }
+    }
+}
+
+/// Cuts the closed dual polygon `k` by [`Triangulation::MaxMinAngle`]: the best cut by
+/// diagonals, else a star around its centroid, else a star around its edge's crossing.
+///
+/// The dual polygon must separate its edge's marked end from its unmarked end: a cut is
+/// taken only if the edge passes through exactly one of its triangles, from the back to
+/// the front. On the long, flat tetrahedra between drill holes a triangulation can miss
+/// the edge altogether, and the body then folds (negative volumes measured on real drill
+/// holes). The star around the edge's crossing always separates.
+fn cut_max_min_angle(
+    plan: &mut PlanBuilder,
+    topo: &Topology,
+    k: usize,
+    positions: &[DVec3],
+    edge_ends: &dyn Fn(u32, u32) -> (DVec3, DVec3),
+) {
+    let poly = topo.polygon(k);
+    let n = poly.len();
+    let pts: Vec<DVec3> = poly.iter().map(|&v| positions[v as usize]).collect();
+    let (a, b) = topo.dual_edges[k];
+    let (pa, pb) = edge_ends(a, b);
+    let normal = newell_normal(&pts);
+    let (mut best, diagonals) = if n == 3 {
+        let t = [0, 1, 2];
+        let score = triangle_score(pts[0], pts[1], pts[2], normal);
+        (CutScore::triangle(score), vec![t])
+    } else {
+        max_min_angle_triangulation(&pts, normal)
+    };
+    if !best.folded() && !separates(pa, pb, diagonals.iter().map(|t| t.map(|i| pts[i]))) {
+        best = CutScore::FOLDED;
+    }
+    let pts = &pts;
+    let star = |centre: DVec3| (0..n).map(move |i| [centre, pts[i], pts[(i + 1) % n]]);
+    let centroid = pts.iter().sum::<DVec3>() / n as f64;
+    let mut centroid_score = star(centroid)
+        .map(|[c, p, q]| CutScore::triangle(triangle_score(c, p, q, normal)))
+        .fold(CutScore::EMPTY, CutScore::join);
+    if !centroid_score.folded() && !separates(pa, pb, star(centroid)) {
+        centroid_score = CutScore::FOLDED;
+    }
+    if !best.folded() && !centroid_score.better_than(best) {
+        for [a, b, c] in diagonals {
+            plan.triangles.push([poly[a], poly[b], poly[c]]);
+        }
+    } else {
+        let c = plan.add(if !centroid_score.folded() {
+            Added::Centroid(k as u32)
+        } else {
+            Added::Crossing(a, b)
+        });
+        plan.star(c, poly);
     }
 }
 

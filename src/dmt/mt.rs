@@ -118,39 +118,15 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
         "marching_tetrahedra needs one value per mesh vertex"
     );
     let marks: Vec<bool> = values.par_iter().map(|v| *v >= threshold).collect();
-    let marked = |v: u32| marks[v as usize];
-    let mask_of =
-        |tet: &[u32; 4]| -> u8 { (0..4).fold(0u8, |m, c| m | (u8::from(marked(tet[c])) << c)) };
 
     // Active tetrahedra, then active edges, canonical (min, max), sorted: vertex n is edge n.
     let active_tets: Vec<u32> = mesh
         .par_tets()
         .enumerate()
-        .filter(|(_, tet)| !matches!(mask_of(tet), 0 | 15))
+        .filter(|(_, tet)| !matches!(corner_mask(&marks, tet), 0 | 15))
         .map(|(t, _)| t as u32)
         .collect();
-    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(active_tets.len() * 3);
-    for &t in &active_tets {
-        let tet = &mesh.tet(t as usize);
-        let mask = mask_of(tet);
-        for a in 0..4 {
-            for b in a + 1..4 {
-                if (mask >> a & 1) != (mask >> b & 1) {
-                    let (x, y) = (tet[a], tet[b]);
-                    edges.push((x.min(y), x.max(y)));
-                }
-            }
-        }
-    }
-    edges.sort_unstable();
-    edges.dedup();
-    let edge_vertex = |x: u32, y: u32| -> u32 {
-        edges
-            .binary_search(&(x.min(y), x.max(y)))
-            .expect("every edge with differing marks of an active tetrahedron is listed")
-            as u32
-    };
-
+    let edges = active_edges(mesh, &marks, &active_tets);
     let mut vertices = Vec::with_capacity(edges.len());
     let mut vertex_edges = Vec::with_capacity(edges.len());
     for &(x, y) in &edges {
@@ -162,44 +138,12 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
             fy,
             threshold,
         ));
-        vertex_edges.push(if marked(x) { [x, y] } else { [y, x] });
+        vertex_edges.push(if marks[x as usize] { [x, y] } else { [y, x] });
     }
-
-    // One face per active tetrahedron, oriented from marked to unmarked.
-    let mut faces = Vec::with_capacity(active_tets.len());
-    for &t in &active_tets {
-        let tet = &mesh.tet(t as usize);
-        let mask = mask_of(tet);
-        let e = |a: usize, b: usize| edge_vertex(tet[a], tet[b]);
-        let inside: Vec<usize> = (0..4).filter(|c| mask >> c & 1 == 1).collect();
-        let outside: Vec<usize> = (0..4).filter(|c| mask >> c & 1 == 0).collect();
-        let face = match (inside.as_slice(), outside.as_slice()) {
-            // One corner `a` alone on its side; (a, b, c, d) made an even permutation so
-            // that triangle (ab, ac, ad) faces away from `a`.
-            ([a], [b, c, d]) | ([b, c, d], [a]) => {
-                let (a, b, mut c, mut d) = (*a, *b, *c, *d);
-                if odd([a, b, c, d]) {
-                    std::mem::swap(&mut c, &mut d);
-                }
-                if inside.len() == 1 {
-                    MtFace::Triangle([e(a, b), e(a, c), e(a, d)])
-                } else {
-                    MtFace::Triangle([e(a, b), e(a, d), e(a, c)])
-                }
-            }
-            // Marked a, b; unmarked c, d; (a, b, c, d) even: quad (ac, ad, bd, bc) faces
-            // the unmarked side.
-            ([a, b], [c, d]) => {
-                let (a, b, mut c, mut d) = (*a, *b, *c, *d);
-                if odd([a, b, c, d]) {
-                    std::mem::swap(&mut c, &mut d);
-                }
-                MtFace::Quad([e(a, c), e(a, d), e(b, d), e(b, c)])
-            }
-            _ => unreachable!("an active tetrahedron has 1, 2 or 3 marked corners"),
-        };
-        faces.push(face);
-    }
+    let faces: Vec<MtFace> = active_tets
+        .iter()
+        .map(|&t| tet_face(&mesh.tet(t as usize), &marks, &edges))
+        .collect();
 
     let regions = marked_regions(mesh, &marks);
     let counts = ShellCounts {
@@ -209,7 +153,6 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
         surface_vertices: vertices.len(),
         surface_faces: faces.len(),
     };
-
     let mut surface = MtSurface {
         threshold,
         vertices,
@@ -219,8 +162,87 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
         counts,
         bodies: Vec::new(),
     };
+    surface.bodies = capped_bodies(mesh, &surface, &marks, &regions, &edges);
+    surface
+}
 
-    // Every triangle is labelled with the marked region behind it.
+/// Bit `c` set when corner `c` of `tet` is marked.
+fn corner_mask(marks: &[bool], tet: &[u32; 4]) -> u8 {
+    (0..4).fold(0u8, |m, c| m | (u8::from(marks[tet[c] as usize]) << c))
+}
+
+/// The active edges of the `active` tetrahedra, canonical (min, max), sorted and unique.
+fn active_edges(mesh: &TetMesh, marks: &[bool], active: &[u32]) -> Vec<(u32, u32)> {
+    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(active.len() * 3);
+    for &t in active {
+        let tet = &mesh.tet(t as usize);
+        let mask = corner_mask(marks, tet);
+        for a in 0..4 {
+            for b in a + 1..4 {
+                if (mask >> a & 1) != (mask >> b & 1) {
+                    let (x, y) = (tet[a], tet[b]);
+                    edges.push((x.min(y), x.max(y)));
+                }
+            }
+        }
+    }
+    edges.sort_unstable();
+    edges.dedup();
+    edges
+}
+
+/// The surface vertex (index into the sorted active `edges`) on the edge `x`-`y`.
+fn edge_vertex(edges: &[(u32, u32)], x: u32, y: u32) -> u32 {
+    edges
+        .binary_search(&(x.min(y), x.max(y)))
+        .expect("every edge with differing marks of an active tetrahedron is listed") as u32
+}
+
+/// The face of active tetrahedron `tet`, oriented from marked to unmarked.
+fn tet_face(tet: &[u32; 4], marks: &[bool], edges: &[(u32, u32)]) -> MtFace {
+    let mask = corner_mask(marks, tet);
+    let e = |a: usize, b: usize| edge_vertex(edges, tet[a], tet[b]);
+    let inside: Vec<usize> = (0..4).filter(|c| mask >> c & 1 == 1).collect();
+    let outside: Vec<usize> = (0..4).filter(|c| mask >> c & 1 == 0).collect();
+    match (inside.as_slice(), outside.as_slice()) {
+        // One corner `a` alone on its side; (a, b, c, d) made an even permutation so that
+        // triangle (ab, ac, ad) faces away from `a`.
+        ([a], [b, c, d]) | ([b, c, d], [a]) => {
+            let (a, b, mut c, mut d) = (*a, *b, *c, *d);
+            if odd([a, b, c, d]) {
+                std::mem::swap(&mut c, &mut d);
+            }
+            if inside.len() == 1 {
+                MtFace::Triangle([e(a, b), e(a, c), e(a, d)])
+            } else {
+                MtFace::Triangle([e(a, b), e(a, d), e(a, c)])
+            }
+        }
+        // Marked a, b; unmarked c, d; (a, b, c, d) even: quad (ac, ad, bd, bc) faces the
+        // unmarked side.
+        ([a, b], [c, d]) => {
+            let (a, b, mut c, mut d) = (*a, *b, *c, *d);
+            if odd([a, b, c, d]) {
+                std::mem::swap(&mut c, &mut d);
+            }
+            MtFace::Quad([e(a, c), e(a, d), e(b, d), e(b, c)])
+        }
+        _ => unreachable!("an active tetrahedron has 1, 2 or 3 marked corners"),
+    }
+}
+
+/// The bodies of `surface`: its faces cut into triangles and closed at the hull by the
+/// marked part of every hull triangle, each triangle labelled with the marked region
+/// behind it.
+fn capped_bodies(
+    mesh: &TetMesh,
+    surface: &MtSurface,
+    marks: &[bool],
+    regions: &[u32],
+    edges: &[(u32, u32)],
+) -> Vec<Body> {
+    let marked = |v: u32| marks[v as usize];
+    let edge_vertex = |x: u32, y: u32| edge_vertex(edges, x, y);
     let region_of_tet = |tet: &[u32; 4]| -> u32 {
         let v = tet.iter().find(|v| marks[**v as usize]);
         regions[*v.expect("an active or capped tetrahedron has a marked corner") as usize]
@@ -294,8 +316,7 @@ pub fn marching_tetrahedra(mesh: &TetMesh, values: &[f64], threshold: f64) -> Mt
         is_cap.resize(triangles.len(), true);
         labels.resize(triangles.len(), region_of_tet(tet));
     }
-    surface.bodies = bodies_by_label(&positions, &triangles, &is_cap, &labels);
-    surface
+    bodies_by_label(&positions, &triangles, &is_cap, &labels)
 }
 
 /// Vertex identities on the hull that keep the capped surface a 2-manifold where the hull

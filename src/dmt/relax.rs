@@ -143,164 +143,16 @@ pub fn relax(
 ) -> usize {
     let Surface {
         topo,
-        mesh,
-        field,
         plan,
         edge_crossing,
-        edge_ends,
+        ..
     } = *surface;
-    let n = topo.active_tets;
-    let triangles = &plan.triangles;
     let mut realized = plan.realize(topo, positions.to_vec(), edge_crossing);
-    let incidence = Incidence::new(triangles, realized.len());
-    let orientation: Vec<DVec3> = triangles
-        .par_iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| realized[i as usize]);
-            (b - a).cross(c - a)
-        })
-        .collect();
-    let ranges = plan.polygon_ranges(topo.polygon_count());
-    let polygon_triangles = |k: usize| ranges[k]..ranges[k + 1];
-    // Dual polygons whose cut lets their edge through: a move must keep it so.
-    let guarded: Vec<bool> = (0..topo.polygon_count())
-        .into_par_iter()
-        .map(|k| {
-            if topo.kinds[k] != PolygonKind::Dual || topo.dual_open[k] {
-                return false;
-            }
-            let (a, b) = topo.dual_edges[k];
-            let (pa, pb) = edge_ends(a, b);
-            separates(
-                pa,
-                pb,
-                triangles[polygon_triangles(k)]
-                    .iter()
-                    .map(|t| t.map(|i| realized[i as usize])),
-            )
-        })
-        .collect();
+    let rules = MoveRules::new(surface, &realized);
     // Vertices that share a polygon move in different colour classes: a vertex's score
     // reads only the corners of its own polygons, so each class moves in parallel with
     // the result of a sequential pass in class order.
-    // Only vertices with a sliver among their triangles at the paper's positions move (on a
-    // grid a few percent of them).
-    let movable: Vec<bool> = (0..n)
-        .into_par_iter()
-        .map(|v| {
-            incidence.of(v).iter().any(|&ti| {
-                let [a, b, c] = triangles[ti as usize].map(|i| realized[i as usize]);
-                min_angle_sine(a, b, c) < SLIVER_SINE
-            })
-        })
-        .collect();
-    let classes = colour_classes(plan, &incidence, &movable);
-    let evaluate = |v: usize, realized: &[DVec3], w: [f64; 4]| -> Option<([f64; 4], DVec3)> {
-        let tris = incidence.of(v);
-        let at = |t: [u32; 3], x: DVec3| {
-            t.map(|i| {
-                if i as usize == v {
-                    x
-                } else {
-                    realized[i as usize]
-                }
-            })
-        };
-        // (slivers, smallest sine, twice the area) of the incident triangles with the
-        // vertex at `x`, or None for a move that turns a triangle too far. Only the
-        // triangles holding `v` change, so only they are judged.
-        let judge = |x: DVec3| -> Option<(usize, f64, f64)> {
-            let mut slivers = 0;
-            let mut worst = 1.0f64;
-            let mut area = 0.0;
-            for &ti in tris {
-                let [a, b, c] = at(triangles[ti as usize], x);
-                let normal = (b - a).cross(c - a);
-                let length = normal.length();
-                let was = orientation[ti as usize];
-                if normal.dot(was) <= MAX_TURN_COS * length * was.length() {
-                    return None;
-                }
-                let sine = sine_from_area(a, b, c, length);
-                slivers += usize::from(sine < SLIVER_SINE);
-                worst = worst.min(sine);
-                area += length;
-            }
-            Some((slivers, worst, area))
-        };
-        let here_pos = realized[v];
-        let (here, area_limit) = match judge(here_pos) {
-            Some((0, ..)) => return None,
-            Some((slivers, worst, area)) => ((slivers, worst), area * RING_AREA_GROWTH),
-            None => ((usize::MAX, -1.0), f64::INFINITY),
-        };
-        let mut polygons: Vec<usize> = Vec::new();
-        for &ti in tris {
-            let k = plan.polygon_of[ti as usize] as usize;
-            if guarded[k] && !polygons.contains(&k) {
-                polygons.push(k);
-            }
-        }
-        // The cut must still suit each guarded polygon: no triangle facing against the
-        // polygon's normal, and the polygon's edge let through once from back to front.
-        let mut corners_at: Vec<DVec3> = Vec::new();
-        let mut keeps_cut = |x: DVec3| -> bool {
-            polygons.iter().all(|&k| {
-                corners_at.clear();
-                corners_at.extend(topo.polygon(k).iter().map(|&i| {
-                    if i as usize == v {
-                        x
-                    } else {
-                        realized[i as usize]
-                    }
-                }));
-                let normal = newell_normal(&corners_at);
-                let tris = &triangles[polygon_triangles(k)];
-                let faces_out = tris.iter().all(|&t| {
-                    let [a, b, c] = at(t, x);
-                    (b - a).cross(c - a).dot(normal) > 0.0
-                });
-                let (a, b) = topo.dual_edges[k];
-                let (pa, pb) = edge_ends(a, b);
-                faces_out && separates(pa, pb, tris.iter().map(|&t| at(t, x)))
-            })
-        };
-        let c = corners(topo, mesh, field, v);
-        let crossings: Vec<DVec3> = c.active_edges(0.0).map(|(i, j)| c.v(i, j, 0.0)).collect();
-        // Candidates that beat the current position, best first (ties in candidate
-        // order); the first whose polygons' cuts still suit it is taken, so the costly
-        // cut check runs on as few candidates as possible.
-        let mut better: Vec<Candidate> = Vec::new();
-        for k in 0..crossings.len() {
-            for s in STEPS {
-                let mut cand = w.map(|x| x * (1.0 - s));
-                cand[k] += s;
-                if cand[..crossings.len()].iter().any(|&x| x < MIN_WEIGHT) {
-                    continue;
-                }
-                let x: DVec3 = crossings.iter().zip(&cand).map(|(&q, &wq)| q * wq).sum();
-                let Some((slivers, worst, area)) = judge(x) else {
-                    continue;
-                };
-                if area > area_limit {
-                    continue;
-                }
-                if slivers < here.0 || (slivers == here.0 && worst > here.1) {
-                    better.push(((slivers, worst), better.len(), cand, x));
-                }
-            }
-        }
-        better.sort_by(|a, b| {
-            a.0.0
-                .cmp(&b.0.0)
-                .then(b.0.1.total_cmp(&a.0.1))
-                .then(a.1.cmp(&b.1))
-        });
-        better
-            .into_iter()
-            .find(|c| keeps_cut(c.3))
-            .map(|(_, _, w, x)| (w, x))
-    };
+    let classes = colour_classes(plan, &rules.incidence, &rules.movable(&realized));
     let mut moves = 0;
     for sweep in 0..sweeps {
         if sweep > 0 {
@@ -312,7 +164,9 @@ pub fn relax(
             let updates: Vec<(u32, [f64; 4], DVec3)> = class
                 .par_iter()
                 .filter_map(|&v| {
-                    evaluate(v as usize, &realized, weights[v as usize]).map(|(w, x)| (v, w, x))
+                    rules
+                        .best_move(v as usize, &realized, weights[v as usize])
+                        .map(|(w, x)| (v, w, x))
                 })
                 .collect();
             moved += updates.len();
@@ -328,6 +182,229 @@ pub fn relax(
         }
     }
     moves
+}
+
+/// Triangle `t`'s corners with vertex `v` at `x` and every other at `realized`.
+fn corners_with(t: [u32; 3], v: usize, x: DVec3, realized: &[DVec3]) -> [DVec3; 3] {
+    t.map(|i| {
+        if i as usize == v {
+            x
+        } else {
+            realized[i as usize]
+        }
+    })
+}
+
+/// What a vertex's moves are judged against, fixed at the paper's positions for the whole
+/// relaxation: its incident triangles and their orientations, and the dual polygons whose
+/// cut lets their edge through.
+struct MoveRules<'a> {
+    surface: Surface<'a>,
+    incidence: Incidence,
+    /// Each triangle's normal (twice its area) at the paper's positions.
+    orientation: Vec<DVec3>,
+    /// The triangles of polygon `k` are `ranges[k]..ranges[k + 1]`.
+    ranges: Vec<usize>,
+    /// Dual polygons whose cut lets their edge through: a move must keep it so.
+    guarded: Vec<bool>,
+}
+
+impl<'a> MoveRules<'a> {
+    fn new(surface: &Surface<'a>, realized: &[DVec3]) -> Self {
+        let Surface {
+            topo,
+            plan,
+            edge_ends,
+            ..
+        } = *surface;
+        let triangles = &plan.triangles;
+        let incidence = Incidence::new(triangles, realized.len());
+        let orientation: Vec<DVec3> = triangles
+            .par_iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| realized[i as usize]);
+                (b - a).cross(c - a)
+            })
+            .collect();
+        let ranges = plan.polygon_ranges(topo.polygon_count());
+        let guarded: Vec<bool> = (0..topo.polygon_count())
+            .into_par_iter()
+            .map(|k| {
+                if topo.kinds[k] != PolygonKind::Dual || topo.dual_open[k] {
+                    return false;
+                }
+                let (a, b) = topo.dual_edges[k];
+                let (pa, pb) = edge_ends(a, b);
+                separates(
+                    pa,
+                    pb,
+                    triangles[ranges[k]..ranges[k + 1]]
+                        .iter()
+                        .map(|t| t.map(|i| realized[i as usize])),
+                )
+            })
+            .collect();
+        Self {
+            surface: *surface,
+            incidence,
+            orientation,
+            ranges,
+            guarded,
+        }
+    }
+
+    /// The DMT vertices that may move: those with a sliver among their triangles at the
+    /// paper's positions (on a grid a few percent of them).
+    fn movable(&self, realized: &[DVec3]) -> Vec<bool> {
+        let triangles = &self.surface.plan.triangles;
+        (0..self.surface.topo.active_tets)
+            .into_par_iter()
+            .map(|v| {
+                self.incidence.of(v).iter().any(|&ti| {
+                    let [a, b, c] = triangles[ti as usize].map(|i| realized[i as usize]);
+                    min_angle_sine(a, b, c) < SLIVER_SINE
+                })
+            })
+            .collect()
+    }
+
+    /// (slivers, smallest sine, twice the area) of vertex `v`'s incident triangles with
+    /// the vertex at `x`, or None for a move that turns a triangle too far. Only the
+    /// triangles holding `v` change, so only they are judged.
+    fn ring_shape(&self, v: usize, x: DVec3, realized: &[DVec3]) -> Option<(usize, f64, f64)> {
+        let triangles = &self.surface.plan.triangles;
+        let mut slivers = 0;
+        let mut worst = 1.0f64;
+        let mut area = 0.0;
+        for &ti in self.incidence.of(v) {
+            let [a, b, c] = corners_with(triangles[ti as usize], v, x, realized);
+            let normal = (b - a).cross(c - a);
+            let length = normal.length();
+            let was = self.orientation[ti as usize];
+            if normal.dot(was) <= MAX_TURN_COS * length * was.length() {
+                return None;
+            }
+            let sine = sine_from_area(a, b, c, length);
+            slivers += usize::from(sine < SLIVER_SINE);
+            worst = worst.min(sine);
+            area += length;
+        }
+        Some((slivers, worst, area))
+    }
+
+    /// The guarded polygons vertex `v` is a corner of.
+    fn guarded_polygons(&self, v: usize) -> Vec<usize> {
+        let mut polygons: Vec<usize> = Vec::new();
+        for &ti in self.incidence.of(v) {
+            let k = self.surface.plan.polygon_of[ti as usize] as usize;
+            if self.guarded[k] && !polygons.contains(&k) {
+                polygons.push(k);
+            }
+        }
+        polygons
+    }
+
+    /// Whether the cut still suits each of `polygons` with vertex `v` at `x`: no triangle
+    /// facing against the polygon's normal, and the polygon's edge let through once from
+    /// back to front.
+    fn keeps_cuts(&self, v: usize, x: DVec3, realized: &[DVec3], polygons: &[usize]) -> bool {
+        let Surface {
+            topo,
+            plan,
+            edge_ends,
+            ..
+        } = self.surface;
+        let mut corners_at: Vec<DVec3> = Vec::new();
+        polygons.iter().all(|&k| {
+            corners_at.clear();
+            corners_at.extend(topo.polygon(k).iter().map(|&i| {
+                if i as usize == v {
+                    x
+                } else {
+                    realized[i as usize]
+                }
+            }));
+            let normal = newell_normal(&corners_at);
+            let tris = &plan.triangles[self.ranges[k]..self.ranges[k + 1]];
+            let faces_out = tris.iter().all(|&t| {
+                let [a, b, c] = corners_with(t, v, x, realized);
+                (b - a).cross(c - a).dot(normal) > 0.0
+            });
+            let (a, b) = topo.dual_edges[k];
+            let (pa, pb) = edge_ends(a, b);
+            faces_out
+                && separates(
+                    pa,
+                    pb,
+                    tris.iter().map(|&t| corners_with(t, v, x, realized)),
+                )
+        })
+    }
+
+    /// The best move of vertex `v` (weights `w`): the candidate with the fewest slivers
+    /// and then the largest smallest angle among those that beat its current position,
+    /// keep its ring's area and keep its polygons' cuts; None when no candidate does.
+    fn best_move(&self, v: usize, realized: &[DVec3], w: [f64; 4]) -> Option<([f64; 4], DVec3)> {
+        let (here, area_limit) = match self.ring_shape(v, realized[v], realized) {
+            Some((0, ..)) => return None,
+            Some((slivers, worst, area)) => ((slivers, worst), area * RING_AREA_GROWTH),
+            None => ((usize::MAX, -1.0), f64::INFINITY),
+        };
+        let polygons = self.guarded_polygons(v);
+        let mut better = self.better_candidates(v, realized, w, here, area_limit);
+        // Best first (ties in candidate order); the first whose polygons' cuts still suit
+        // it is taken, so the costly cut check runs on as few candidates as possible.
+        better.sort_by(|a, b| {
+            a.0.0
+                .cmp(&b.0.0)
+                .then(b.0.1.total_cmp(&a.0.1))
+                .then(a.1.cmp(&b.1))
+        });
+        better
+            .into_iter()
+            .find(|c| self.keeps_cuts(v, c.3, realized, &polygons))
+            .map(|(_, _, w, x)| (w, x))
+    }
+
+    /// The candidate moves of vertex `v` (weights `w`, towards or away from each of its
+    /// crossings by [`STEPS`]) that keep every weight, do not grow its ring's area past
+    /// `area_limit` and beat its current (slivers, smallest sine) `here`; in candidate
+    /// order.
+    fn better_candidates(
+        &self,
+        v: usize,
+        realized: &[DVec3],
+        w: [f64; 4],
+        here: (usize, f64),
+        area_limit: f64,
+    ) -> Vec<Candidate> {
+        let Surface {
+            topo, mesh, field, ..
+        } = self.surface;
+        let c = corners(topo, mesh, field, v);
+        let crossings: Vec<DVec3> = c.active_edges(0.0).map(|(i, j)| c.v(i, j, 0.0)).collect();
+        let mut better: Vec<Candidate> = Vec::new();
+        for k in 0..crossings.len() {
+            for s in STEPS {
+                let mut cand = w.map(|x| x * (1.0 - s));
+                cand[k] += s;
+                if cand[..crossings.len()].iter().any(|&x| x < MIN_WEIGHT) {
+                    continue;
+                }
+                let x: DVec3 = crossings.iter().zip(&cand).map(|(&q, &wq)| q * wq).sum();
+                let Some((slivers, worst, area)) = self.ring_shape(v, x, realized) else {
+                    continue;
+                };
+                if area > area_limit {
+                    continue;
+                }
+                if slivers < here.0 || (slivers == here.0 && worst > here.1) {
+                    better.push(((slivers, worst), better.len(), cand, x));
+                }
+            }
+        }
+        better
+    }
 }
 
 /// Greedy colouring of the `movable` DMT vertices such that no two corners of one polygon
