@@ -122,44 +122,8 @@ impl Header {
                 "not a NRRD file (it must start with NRRD0001..NRRD0005)",
             ));
         }
-        let mut pos = 0;
-        let mut lines: Vec<(usize, String)> = Vec::new();
-        let mut data_start = bytes.len();
-        let mut line_no = 0;
-        while pos < bytes.len() {
-            let end = bytes[pos..]
-                .iter()
-                .position(|b| *b == b'\n')
-                .map_or(bytes.len(), |e| pos + e);
-            let raw_line = &bytes[pos..end];
-            pos = (end + 1).min(bytes.len());
-            line_no += 1;
-            let raw_line = raw_line.strip_suffix(b"\r").unwrap_or(raw_line);
-            if raw_line.is_empty() {
-                data_start = pos;
-                break;
-            }
-            let line = std::str::from_utf8(raw_line).map_err(|_| {
-                GridError::format(name, &format!("line {line_no}"), "header text is not UTF-8")
-            })?;
-            lines.push((line_no, line.to_string()));
-        }
-
-        let mut dimension = None;
-        let mut sizes = None;
-        let mut scalar = None;
-        let mut endian = None;
-        let mut encoding = None;
-        let mut spacings = None;
-        let mut directions = None;
-        let mut space_origin = None;
-        let mut unit = None;
-        let mut content = None;
-        let mut data_files = None;
-        let mut line_skip = 0;
-        let mut byte_skip = Some(0);
-        let mut warnings = Vec::new();
-
+        let (lines, data_start) = header_lines(name, bytes)?;
+        let mut fields = Fields::new();
         for (line_no, line) in lines.iter().skip(1) {
             if line.starts_with('#') {
                 continue;
@@ -175,179 +139,13 @@ impl Header {
                 ));
             };
             let field_name = field.trim().to_ascii_lowercase();
-            let value = value.trim();
-            let field = field_name.as_str();
-            match field {
-                "dimension" => dimension = Some(parse_usize(name, field, value)?),
-                "sizes" => {
-                    let list = value
-                        .split_whitespace()
-                        .map(|v| parse_usize(name, field, v))
-                        .collect::<Result<Vec<_>, _>>()?;
-                    sizes = Some(list);
-                }
-                "type" => {
-                    scalar = Some((parse_type(name, value)?, value.to_string()));
-                }
-                "endian" => {
-                    endian = Some(match value.to_ascii_lowercase().as_str() {
-                        "little" => Endian::Little,
-                        "big" => Endian::Big,
-                        _ => {
-                            return Err(GridError::format(
-                                name,
-                                field,
-                                format!("{value:?}: expected little or big"),
-                            ));
-                        }
-                    })
-                }
-                "encoding" => {
-                    encoding = Some(match value.to_ascii_lowercase().as_str() {
-                        "raw" => Encoding::Raw,
-                        "gzip" | "gz" => Encoding::Gzip,
-                        "ascii" | "text" | "txt" => Encoding::Ascii,
-                        other => {
-                            return Err(GridError::unsupported(
-                                name,
-                                field,
-                                format!("encoding {other:?}"),
-                            ));
-                        }
-                    })
-                }
-                "spacings" => {
-                    let list = value
-                        .split_whitespace()
-                        .map(|v| parse_f64(name, field, v))
-                        .collect::<Result<Vec<_>, _>>()?;
-                    spacings = Some(list);
-                }
-                "space directions" => directions = Some(parse_directions(name, value)?),
-                "space origin" => {
-                    let v = parse_vector(name, field, value)?;
-                    space_origin = Some(v);
-                }
-                "space units" => {
-                    let units: Vec<&str> = value
-                        .split('"')
-                        .map(str::trim)
-                        .filter(|u| !u.is_empty())
-                        .collect();
-                    if units.windows(2).any(|w| w[0] != w[1]) {
-                        warnings.push(format!(
-                            "{name}: space units: axes have different units {units:?}; using {:?}",
-                            units[0]
-                        ));
-                    }
-                    unit = units.first().map(|u| u.to_string());
-                }
-                "content" => content = Some(value.to_string()),
-                "data file" | "datafile" => {
-                    data_files = Some(parse_data_files(name, value, &lines, *line_no)?);
-                    if value.split_whitespace().next() == Some("LIST") {
-                        break; // the remaining lines are the file names
-                    }
-                }
-                "line skip" | "lineskip" => line_skip = parse_usize(name, field, value)?,
-                "byte skip" | "byteskip" => {
-                    byte_skip = if value == "-1" {
-                        None
-                    } else {
-                        Some(parse_usize(name, field, value)?)
-                    }
-                }
-                "space" | "space dimension" | "kinds" | "centers" | "centerings" | "labels"
-                | "units" | "thicknesses" | "axis mins" | "axismins" | "axis maxs" | "axismaxs"
-                | "min" | "max" | "old min" | "oldmin" | "old max" | "oldmax" | "sample units"
-                | "sampleunits" | "measurement frame" | "number" | "block size" | "blocksize" => {}
-                other => warnings.push(format!("{name}: unknown header field {other:?} ignored")),
+            if fields.read(name, &field_name, value.trim(), &lines, *line_no)?
+                == NextLines::FileNames
+            {
+                break; // the remaining lines are the file names
             }
         }
-
-        let dimension = dimension.ok_or_else(|| GridError::format(name, "dimension", "missing"))?;
-        if dimension != 3 {
-            return Err(GridError::unsupported(
-                name,
-                "dimension",
-                format!("a {dimension}-dimensional array (only 3D volumes)"),
-            ));
-        }
-        let sizes = sizes.ok_or_else(|| GridError::format(name, "sizes", "missing"))?;
-        let sizes: [usize; 3] = sizes.as_slice().try_into().map_err(|_| {
-            GridError::format(
-                name,
-                "sizes",
-                format!("{} sizes for dimension 3", sizes.len()),
-            )
-        })?;
-        let (scalar, type_name) =
-            scalar.ok_or_else(|| GridError::format(name, "type", "missing"))?;
-        let encoding = encoding.ok_or_else(|| GridError::format(name, "encoding", "missing"))?;
-        if encoding != Encoding::Ascii && scalar.size() > 1 && endian.is_none() {
-            return Err(GridError::format(
-                name,
-                "endian",
-                format!("missing (required for {type_name:?} samples)"),
-            ));
-        }
-        if byte_skip.is_none() && encoding != Encoding::Raw {
-            return Err(GridError::format(
-                name,
-                "byte skip",
-                "-1 is only allowed with raw encoding",
-            ));
-        }
-
-        let axes = match (directions, spacings) {
-            (Some(d), _) => d,
-            (None, Some(s)) => {
-                if s.len() != 3 {
-                    return Err(GridError::format(
-                        name,
-                        "spacings",
-                        format!("{} spacings for dimension 3", s.len()),
-                    ));
-                }
-                if s.iter().any(|v| !v.is_finite() || *v == 0.0) {
-                    return Err(GridError::format(
-                        name,
-                        "spacings",
-                        format!("{s:?}: each must be a finite, non-zero number"),
-                    ));
-                }
-                [
-                    DVec3::new(s[0], 0.0, 0.0),
-                    DVec3::new(0.0, s[1], 0.0),
-                    DVec3::new(0.0, 0.0, s[2]),
-                ]
-            }
-            (None, None) => {
-                warnings.push(format!(
-                    "{name}: neither spacings nor space directions given; using spacing 1"
-                ));
-                [DVec3::X, DVec3::Y, DVec3::Z]
-            }
-        };
-
-        Ok((
-            Header {
-                sizes,
-                scalar,
-                type_name,
-                endian,
-                encoding,
-                axes,
-                space_origin: space_origin.unwrap_or(DVec3::ZERO),
-                unit,
-                content,
-                data_files,
-                line_skip,
-                byte_skip,
-                warnings,
-            },
-            data_start,
-        ))
+        Ok((fields.into_header(name)?, data_start))
     }
 
     /// The (decompressed) sample bytes of one data file: skips, then decoding. `expected`
@@ -479,6 +277,278 @@ fn truncated(file: &str, found: usize, expected: usize) -> GridError {
         "data",
         format!("{found} bytes of data, but sizes and type need {expected} (truncated?)"),
     )
+}
+
+/// The header's lines (numbered from 1) up to the blank line, and where the data after it
+/// starts (the end of `bytes` when there is none).
+fn header_lines(name: &str, bytes: &[u8]) -> Result<(Vec<(usize, String)>, usize), GridError> {
+    let mut pos = 0;
+    let mut lines: Vec<(usize, String)> = Vec::new();
+    let mut data_start = bytes.len();
+    let mut line_no = 0;
+    while pos < bytes.len() {
+        let end = bytes[pos..]
+            .iter()
+            .position(|b| *b == b'\n')
+            .map_or(bytes.len(), |e| pos + e);
+        let raw_line = &bytes[pos..end];
+        pos = (end + 1).min(bytes.len());
+        line_no += 1;
+        let raw_line = raw_line.strip_suffix(b"\r").unwrap_or(raw_line);
+        if raw_line.is_empty() {
+            data_start = pos;
+            break;
+        }
+        let line = std::str::from_utf8(raw_line).map_err(|_| {
+            GridError::format(name, &format!("line {line_no}"), "header text is not UTF-8")
+        })?;
+        lines.push((line_no, line.to_string()));
+    }
+    Ok((lines, data_start))
+}
+
+/// Whether the header lines after a field are still fields.
+#[derive(Debug, PartialEq)]
+enum NextLines {
+    Fields,
+    /// `data file: LIST`: the remaining lines are the data files' names.
+    FileNames,
+}
+
+/// A NRRD header's fields as read, before they are checked to make a [`Header`].
+struct Fields {
+    dimension: Option<usize>,
+    sizes: Option<Vec<usize>>,
+    scalar: Option<(ScalarType, String)>,
+    endian: Option<Endian>,
+    encoding: Option<Encoding>,
+    spacings: Option<Vec<f64>>,
+    directions: Option<[DVec3; 3]>,
+    space_origin: Option<DVec3>,
+    unit: Option<String>,
+    content: Option<String>,
+    data_files: Option<Vec<String>>,
+    line_skip: usize,
+    byte_skip: Option<usize>,
+    warnings: Vec<String>,
+}
+
+impl Fields {
+    fn new() -> Self {
+        Self {
+            dimension: None,
+            sizes: None,
+            scalar: None,
+            endian: None,
+            encoding: None,
+            spacings: None,
+            directions: None,
+            space_origin: None,
+            unit: None,
+            content: None,
+            data_files: None,
+            line_skip: 0,
+            byte_skip: Some(0),
+            warnings: Vec::new(),
+        }
+    }
+
+    /// Reads `field: value` (the field in lower case) of header line `line_no`.
+    fn read(
+        &mut self,
+        name: &str,
+        field: &str,
+        value: &str,
+        lines: &[(usize, String)],
+        line_no: usize,
+    ) -> Result<NextLines, GridError> {
+        match field {
+            "dimension" => self.dimension = Some(parse_usize(name, field, value)?),
+            "sizes" => {
+                let list = value
+                    .split_whitespace()
+                    .map(|v| parse_usize(name, field, v))
+                    .collect::<Result<Vec<_>, _>>()?;
+                self.sizes = Some(list);
+            }
+            "type" => {
+                self.scalar = Some((parse_type(name, value)?, value.to_string()));
+            }
+            "endian" => {
+                self.endian = Some(match value.to_ascii_lowercase().as_str() {
+                    "little" => Endian::Little,
+                    "big" => Endian::Big,
+                    _ => {
+                        return Err(GridError::format(
+                            name,
+                            field,
+                            format!("{value:?}: expected little or big"),
+                        ));
+                    }
+                })
+            }
+            "encoding" => {
+                self.encoding = Some(match value.to_ascii_lowercase().as_str() {
+                    "raw" => Encoding::Raw,
+                    "gzip" | "gz" => Encoding::Gzip,
+                    "ascii" | "text" | "txt" => Encoding::Ascii,
+                    other => {
+                        return Err(GridError::unsupported(
+                            name,
+                            field,
+                            format!("encoding {other:?}"),
+                        ));
+                    }
+                })
+            }
+            "spacings" => {
+                let list = value
+                    .split_whitespace()
+                    .map(|v| parse_f64(name, field, v))
+                    .collect::<Result<Vec<_>, _>>()?;
+                self.spacings = Some(list);
+            }
+            "space directions" => self.directions = Some(parse_directions(name, value)?),
+            "space origin" => {
+                let v = parse_vector(name, field, value)?;
+                self.space_origin = Some(v);
+            }
+            "space units" => {
+                let units: Vec<&str> = value
+                    .split('"')
+                    .map(str::trim)
+                    .filter(|u| !u.is_empty())
+                    .collect();
+                if units.windows(2).any(|w| w[0] != w[1]) {
+                    self.warnings.push(format!(
+                        "{name}: space units: axes have different units {units:?}; using {:?}",
+                        units[0]
+                    ));
+                }
+                self.unit = units.first().map(|u| u.to_string());
+            }
+            "content" => self.content = Some(value.to_string()),
+            "data file" | "datafile" => {
+                self.data_files = Some(parse_data_files(name, value, lines, line_no)?);
+                if value.split_whitespace().next() == Some("LIST") {
+                    return Ok(NextLines::FileNames);
+                }
+            }
+            "line skip" | "lineskip" => self.line_skip = parse_usize(name, field, value)?,
+            "byte skip" | "byteskip" => {
+                self.byte_skip = if value == "-1" {
+                    None
+                } else {
+                    Some(parse_usize(name, field, value)?)
+                }
+            }
+            "space" | "space dimension" | "kinds" | "centers" | "centerings" | "labels"
+            | "units" | "thicknesses" | "axis mins" | "axismins" | "axis maxs" | "axismaxs"
+            | "min" | "max" | "old min" | "oldmin" | "old max" | "oldmax" | "sample units"
+            | "sampleunits" | "measurement frame" | "number" | "block size" | "blocksize" => {}
+            other => self
+                .warnings
+                .push(format!("{name}: unknown header field {other:?} ignored")),
+        }
+        Ok(NextLines::Fields)
+    }
+
+    /// The header the fields make: every required field there, consistent.
+    fn into_header(mut self, name: &str) -> Result<Header, GridError> {
+        let dimension = self
+            .dimension
+            .ok_or_else(|| GridError::format(name, "dimension", "missing"))?;
+        if dimension != 3 {
+            return Err(GridError::unsupported(
+                name,
+                "dimension",
+                format!("a {dimension}-dimensional array (only 3D volumes)"),
+            ));
+        }
+        let sizes = self
+            .sizes
+            .take()
+            .ok_or_else(|| GridError::format(name, "sizes", "missing"))?;
+        let sizes: [usize; 3] = sizes.as_slice().try_into().map_err(|_| {
+            GridError::format(
+                name,
+                "sizes",
+                format!("{} sizes for dimension 3", sizes.len()),
+            )
+        })?;
+        let (scalar, type_name) = self
+            .scalar
+            .take()
+            .ok_or_else(|| GridError::format(name, "type", "missing"))?;
+        let encoding = self
+            .encoding
+            .ok_or_else(|| GridError::format(name, "encoding", "missing"))?;
+        if encoding != Encoding::Ascii && scalar.size() > 1 && self.endian.is_none() {
+            return Err(GridError::format(
+                name,
+                "endian",
+                format!("missing (required for {type_name:?} samples)"),
+            ));
+        }
+        if self.byte_skip.is_none() && encoding != Encoding::Raw {
+            return Err(GridError::format(
+                name,
+                "byte skip",
+                "-1 is only allowed with raw encoding",
+            ));
+        }
+        let axes = self.axes(name)?;
+        Ok(Header {
+            sizes,
+            scalar,
+            type_name,
+            endian: self.endian,
+            encoding,
+            axes,
+            space_origin: self.space_origin.unwrap_or(DVec3::ZERO),
+            unit: self.unit,
+            content: self.content,
+            data_files: self.data_files,
+            line_skip: self.line_skip,
+            byte_skip: self.byte_skip,
+            warnings: self.warnings,
+        })
+    }
+
+    /// The grid's axes: the space directions, else the spacings along x, y and z, else
+    /// spacing 1 (with a warning).
+    fn axes(&mut self, name: &str) -> Result<[DVec3; 3], GridError> {
+        match (self.directions, &self.spacings) {
+            (Some(d), _) => Ok(d),
+            (None, Some(s)) => {
+                if s.len() != 3 {
+                    return Err(GridError::format(
+                        name,
+                        "spacings",
+                        format!("{} spacings for dimension 3", s.len()),
+                    ));
+                }
+                if s.iter().any(|v| !v.is_finite() || *v == 0.0) {
+                    return Err(GridError::format(
+                        name,
+                        "spacings",
+                        format!("{s:?}: each must be a finite, non-zero number"),
+                    ));
+                }
+                Ok([
+                    DVec3::new(s[0], 0.0, 0.0),
+                    DVec3::new(0.0, s[1], 0.0),
+                    DVec3::new(0.0, 0.0, s[2]),
+                ])
+            }
+            (None, None) => {
+                self.warnings.push(format!(
+                    "{name}: neither spacings nor space directions given; using spacing 1"
+                ));
+                Ok([DVec3::X, DVec3::Y, DVec3::Z])
+            }
+        }
+    }
 }
 
 fn parse_usize(name: &str, field: &str, value: &str) -> Result<usize, GridError> {

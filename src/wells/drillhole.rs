@@ -441,44 +441,112 @@ pub(crate) fn read_tables(input: &Input, _unit: Unit) -> Result<Holes, WellsErro
         });
     }
 
-    // Intervals.
     let table = Table::parse(&intervals_file.name, &intervals_file.bytes)?;
-    let hole = table.require("hole id", aliases::HOLE, &[])?;
-    let from = table.require("from depth", aliases::FROM, &[])?;
-    let to = table.require("to depth", aliases::TO, &[])?;
-    let variable = match &input.variable {
-        Some(name) => table.named(name)?,
-        None => {
-            let others: Vec<usize> = (0..table.headers.len())
-                .filter(|&c| c != hole && c != from && c != to)
-                .filter(|&c| !table.headers[c].trim().is_empty())
-                .collect();
-            match others.as_slice() {
-                [only] => *only,
-                _ => {
-                    return Err(WellsError::Invalid {
-                        file: table.file.clone(),
-                        message: format!(
-                            "choose the value column with --variable among: {}",
-                            others
-                                .iter()
-                                .map(|&c| table.headers[c].as_str())
-                                .collect::<Vec<_>>()
-                                .join(", ")
-                        ),
-                    });
-                }
-            }
-        }
-    };
     let rules = ValueRules {
         below: input.below_detection,
         negative_is_below: input.negative_is_below_detection.unwrap_or(true),
     };
-    let categorical = !input.inside_codes.is_empty();
-    let mut per_hole: Vec<Vec<Interval>> = vec![Vec::new(); collars.len()];
-    let mut orphan_ids: Vec<String> = Vec::new();
     let mut issues = Issues::default();
+    let mut per_hole = read_intervals(
+        &table,
+        &index,
+        collars.len(),
+        input,
+        &rules,
+        &mut report,
+        &mut issues,
+    )?;
+    let surveys = read_survey_stations(input, &index, collars.len(), &mut report)?;
+
+    let mut holes = Vec::with_capacity(collars.len());
+    let mut counts = SurveyCounts::default();
+    for (h, collar) in collars.iter().enumerate() {
+        let intervals = resolve_intervals(
+            &collar.id,
+            std::mem::take(&mut per_hole[h]),
+            &mut report,
+            &mut issues,
+        );
+        let samples = interval_samples(&intervals, input.composite_length, &mut report)
+            .map_err(|n| too_many_composites(&table.file, &collar.id, n))?;
+        let deepest = intervals.iter().map(|iv| iv.to).fold(0.0, f64::max);
+        let hole_length = collar.length.unwrap_or(deepest).max(deepest);
+        let stations = hole_stations(
+            &surveys.raw[h],
+            hole_length,
+            surveys.negative_down,
+            &mut report,
+            &mut counts,
+        );
+        holes.push(desurvey_hole(
+            collar,
+            &stations,
+            samples,
+            &mut report,
+            &mut counts,
+        ));
+    }
+    report_surveys(&surveys.name, input, &counts, &mut report);
+    report_below_detection(&table.file, &rules, &mut report);
+    issues.into_warnings(&table.file, &mut report);
+    Ok(Holes {
+        name: format!("{} + {}", collars_file.name, intervals_file.name),
+        holes,
+        crs: None,
+        report,
+    })
+}
+
+/// The value column of the interval table: `--variable`, else the only column besides
+/// hole id, from and to.
+fn value_column(
+    table: &Table,
+    input: &Input,
+    hole: usize,
+    from: usize,
+    to: usize,
+) -> Result<usize, WellsError> {
+    if let Some(name) = &input.variable {
+        return table.named(name);
+    }
+    let others: Vec<usize> = (0..table.headers.len())
+        .filter(|&c| c != hole && c != from && c != to)
+        .filter(|&c| !table.headers[c].trim().is_empty())
+        .collect();
+    match others.as_slice() {
+        [only] => Ok(*only),
+        _ => Err(WellsError::Invalid {
+            file: table.file.clone(),
+            message: format!(
+                "choose the value column with --variable among: {}",
+                others
+                    .iter()
+                    .map(|&c| table.headers[c].as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        }),
+    }
+}
+
+/// The interval table's rows as intervals of each collar's hole (`index`: hole id ->
+/// collar); rows of holes without a collar and bad intervals are counted and dropped.
+fn read_intervals(
+    table: &Table,
+    index: &HashMap<String, usize>,
+    holes: usize,
+    input: &Input,
+    rules: &ValueRules,
+    report: &mut ReadReport,
+    issues: &mut Issues,
+) -> Result<Vec<Vec<Interval>>, WellsError> {
+    let hole = table.require("hole id", aliases::HOLE, &[])?;
+    let from = table.require("from depth", aliases::FROM, &[])?;
+    let to = table.require("to depth", aliases::TO, &[])?;
+    let variable = value_column(table, input, hole, from, to)?;
+    let categorical = !input.inside_codes.is_empty();
+    let mut per_hole: Vec<Vec<Interval>> = vec![Vec::new(); holes];
+    let mut orphan_ids: Vec<String> = Vec::new();
     for row in &table.rows {
         report.rows_read += 1;
         let id = row.get(hole);
@@ -539,18 +607,35 @@ pub(crate) fn read_tables(input: &Input, _unit: Unit) -> Result<Holes, WellsErro
             message: "no interval rows".into(),
         });
     }
+    Ok(per_hole)
+}
 
-    // Surveys and the dip convention.
+/// Every hole's survey stations as read, and how their dips are to be read.
+struct Surveys {
+    raw: Vec<Vec<RawStation>>,
+    /// Negative dips point down.
+    negative_down: bool,
+    /// The survey table's file name (for warnings).
+    name: String,
+}
+
+/// Reads the survey table, if any, and settles the dip convention.
+fn read_survey_stations(
+    input: &Input,
+    index: &HashMap<String, usize>,
+    holes: usize,
+    report: &mut ReadReport,
+) -> Result<Surveys, WellsError> {
     let (raw, inclination) = match &input.surveys_csv {
         Some(file) => {
             let survey_table = Table::parse(&file.name, &file.bytes)?;
-            read_surveys(&survey_table, &index, &mut report)?
+            read_surveys(&survey_table, index, report)?
         }
         None => {
             report.warnings.push(
                 "no survey table: every hole is taken as vertical from its collar".to_owned(),
             );
-            (vec![Vec::new(); collars.len()], false)
+            (vec![Vec::new(); holes], false)
         }
     };
     let survey_name = input
@@ -562,86 +647,121 @@ pub(crate) fn read_tables(input: &Input, _unit: Unit) -> Result<Holes, WellsErro
         report.dip_convention = Some("inclination (0 = down)".to_owned());
         true
     } else if input.surveys_csv.is_some() {
-        dip_convention(survey_name, &raw, input.dip_down_negative, &mut report)
+        dip_convention(survey_name, &raw, input.dip_down_negative, report)
     } else {
         input.dip_down_negative.unwrap_or(true)
     };
+    Ok(Surveys {
+        raw,
+        negative_down,
+        name: survey_name.to_owned(),
+    })
+}
 
-    let mut holes = Vec::with_capacity(collars.len());
-    let (mut unsurveyed, mut beyond_end, mut repeated) = (Vec::new(), 0usize, 0usize);
-    let mut reversed = 0usize;
-    for (h, collar) in collars.iter().enumerate() {
-        let intervals = resolve_intervals(
-            &collar.id,
-            std::mem::take(&mut per_hole[h]),
-            &mut report,
-            &mut issues,
-        );
-        let samples = interval_samples(&intervals, input.composite_length, &mut report)
-            .map_err(|n| too_many_composites(&table.file, &collar.id, n))?;
-        let deepest = intervals.iter().map(|iv| iv.to).fold(0.0, f64::max);
-        let hole_length = collar.length.unwrap_or(deepest).max(deepest);
+/// What the desurvey of all holes dropped or repaired, for the warnings.
+#[derive(Default)]
+struct SurveyCounts {
+    unsurveyed: Vec<String>,
+    beyond_end: usize,
+    repeated: usize,
+    reversed: usize,
+}
 
-        let mut stations: Vec<RawStation> = raw[h].clone();
-        stations.sort_by(|a, b| a.depth.total_cmp(&b.depth).then(a.line.cmp(&b.line)));
-        let before = stations.len();
-        stations.dedup_by(|b, a| a.depth == b.depth);
-        repeated += before - stations.len();
-        // Keep stations down to the first one at or beyond the end of the hole; later rows
-        // (end-of-hole markers such as depth 90000) are dropped.
-        if let Some(end) = stations.iter().position(|s| s.depth >= hole_length) {
-            beyond_end += stations.len() - (end + 1);
-            stations.truncate(end + 1);
-        }
-        let stations: Vec<Station> = stations
-            .iter()
-            .map(|s| {
-                let wrapped = s.azimuth.rem_euclid(360.0);
-                if wrapped != s.azimuth {
-                    report.azimuths_wrapped += 1;
-                }
-                Station {
-                    depth: s.depth,
-                    azimuth_deg: wrapped,
-                    dip_down_deg: if negative_down { -s.dip } else { s.dip },
-                }
-            })
-            .collect();
-        if stations.iter().any(|s| s.dip_down_deg < 0.0) {
-            report.up_holes += 1;
-        }
-        if stations.is_empty() && !samples.is_empty() {
-            report.unsurveyed_holes += 1;
-            unsurveyed.push(collar.id.clone());
-        }
-        let trajectory = Trajectory::new(&stations);
-        reversed += trajectory.reversed_segments;
-        let mut trace = vec![collar.position];
-        let bottom = samples.iter().map(|s| s.0).fold(0.0, f64::max);
-        for &d in trajectory.station_depths() {
-            if d > 0.0 && d < bottom {
-                trace.push(collar.position + trajectory.position(d));
-            }
-        }
-        if bottom > 0.0 {
-            trace.push(collar.position + trajectory.position(bottom));
-        }
-        holes.push(HoleSamples {
-            id: collar.id.clone(),
-            trace,
-            samples: samples
-                .into_iter()
-                .map(|(d, v)| (collar.position + trajectory.position(d), v))
-                .collect(),
-        });
+/// A hole's stations by depth, the first of a repeated depth kept, down to the first one at
+/// or beyond the end of the hole; azimuths wrapped into 0..360 and dips read as pointing
+/// down.
+fn hole_stations(
+    raw: &[RawStation],
+    hole_length: f64,
+    negative_down: bool,
+    report: &mut ReadReport,
+    counts: &mut SurveyCounts,
+) -> Vec<Station> {
+    let mut stations: Vec<RawStation> = raw.to_vec();
+    stations.sort_by(|a, b| a.depth.total_cmp(&b.depth).then(a.line.cmp(&b.line)));
+    let before = stations.len();
+    stations.dedup_by(|b, a| a.depth == b.depth);
+    counts.repeated += before - stations.len();
+    // Keep stations down to the first one at or beyond the end of the hole; later rows
+    // (end-of-hole markers such as depth 90000) are dropped.
+    if let Some(end) = stations.iter().position(|s| s.depth >= hole_length) {
+        counts.beyond_end += stations.len() - (end + 1);
+        stations.truncate(end + 1);
     }
+    stations
+        .iter()
+        .map(|s| {
+            let wrapped = s.azimuth.rem_euclid(360.0);
+            if wrapped != s.azimuth {
+                report.azimuths_wrapped += 1;
+            }
+            Station {
+                depth: s.depth,
+                azimuth_deg: wrapped,
+                dip_down_deg: if negative_down { -s.dip } else { s.dip },
+            }
+        })
+        .collect()
+}
+
+/// The hole of `collar` along its `stations` (minimum curvature): its samples (depth,
+/// value) placed, and its trace through the stations down to the deepest sample.
+fn desurvey_hole(
+    collar: &Collar,
+    stations: &[Station],
+    samples: Vec<(f64, Option<f64>)>,
+    report: &mut ReadReport,
+    counts: &mut SurveyCounts,
+) -> HoleSamples {
+    if stations.iter().any(|s| s.dip_down_deg < 0.0) {
+        report.up_holes += 1;
+    }
+    if stations.is_empty() && !samples.is_empty() {
+        report.unsurveyed_holes += 1;
+        counts.unsurveyed.push(collar.id.clone());
+    }
+    let trajectory = Trajectory::new(stations);
+    counts.reversed += trajectory.reversed_segments;
+    let mut trace = vec![collar.position];
+    let bottom = samples.iter().map(|s| s.0).fold(0.0, f64::max);
+    for &d in trajectory.station_depths() {
+        if d > 0.0 && d < bottom {
+            trace.push(collar.position + trajectory.position(d));
+        }
+    }
+    if bottom > 0.0 {
+        trace.push(collar.position + trajectory.position(bottom));
+    }
+    HoleSamples {
+        id: collar.id.clone(),
+        trace,
+        samples: samples
+            .into_iter()
+            .map(|(d, v)| (collar.position + trajectory.position(d), v))
+            .collect(),
+    }
+}
+
+/// The warnings on the survey stations once every hole is desurveyed.
+fn report_surveys(
+    survey_name: &str,
+    input: &Input,
+    counts: &SurveyCounts,
+    report: &mut ReadReport,
+) {
+    let SurveyCounts {
+        unsurveyed,
+        beyond_end,
+        repeated,
+        reversed,
+    } = counts;
     report.survey_rows_dropped += beyond_end + repeated;
-    if repeated > 0 {
+    if *repeated > 0 {
         report.warnings.push(format!(
             "{survey_name}: {repeated} survey stations repeat an earlier depth of their hole: the first is kept"
         ));
     }
-    if beyond_end > 0 {
+    if *beyond_end > 0 {
         report.warnings.push(format!(
             "{survey_name}: {beyond_end} survey stations lie below the first station past the end of their hole (collar depth or deepest interval), e.g. end markers such as 90000: not used"
         ));
@@ -650,7 +770,7 @@ pub(crate) fn read_tables(input: &Input, _unit: Unit) -> Result<Holes, WellsErro
         report.warnings.push(format!(
             "{} holes have no survey station and are taken as vertical: {}",
             unsurveyed.len(),
-            examples(&unsurveyed)
+            examples(unsurveyed)
         ));
     }
     if report.azimuths_wrapped > 0 {
@@ -659,15 +779,19 @@ pub(crate) fn read_tables(input: &Input, _unit: Unit) -> Result<Holes, WellsErro
             report.azimuths_wrapped
         ));
     }
-    if reversed > 0 {
+    if *reversed > 0 {
         report.warnings.push(format!(
             "{survey_name}: {reversed} survey segments turn by 180 degrees; desurveyed by balanced tangential there"
         ));
     }
+}
+
+/// The warning on below-detection values replaced, if any.
+fn report_below_detection(file: &str, rules: &ValueRules, report: &mut ReadReport) {
     if report.below_detection > 0 {
         report.warnings.push(format!(
             "{}: {} below-detection values ('<limit'{}) replaced by {}",
-            table.file,
+            file,
             report.below_detection,
             if rules.negative_is_below {
                 " or negative sentinels"
@@ -680,13 +804,6 @@ pub(crate) fn read_tables(input: &Input, _unit: Unit) -> Result<Holes, WellsErro
             }
         ));
     }
-    issues.into_warnings(&table.file, &mut report);
-    Ok(Holes {
-        name: format!("{} + {}", collars_file.name, intervals_file.name),
-        holes,
-        crs: None,
-        report,
-    })
 }
 
 #[cfg(test)]

@@ -105,15 +105,58 @@ pub fn parse(name: &str, bytes: &[u8]) -> Result<LasFile, WellsError> {
         rows: Vec::new(),
         warnings: Vec::new(),
     };
-    let mut section = ' ';
-    let mut seen_v = false;
-    let mut a_names: Vec<String> = Vec::new();
-    let mut data_lines: Vec<(u64, &str)> = Vec::new();
-    let mut skipped = Vec::new();
+    let sections = read_sections(name, &lines, &mut las)?;
+    check_header(name, &sections, lines.len() as u64, &mut las)?;
+    if las.wrapped {
+        read_wrapped_rows(name, &sections.data_lines, &mut las)?;
+    } else {
+        read_rows(name, &sections.data_lines, &mut las)?;
+    }
+    if las.rows.is_empty() {
+        return Err(err(
+            name,
+            sections
+                .data_lines
+                .first()
+                .map_or(lines.len() as u64, |d| d.0),
+            "the ~A section holds no depth rows",
+        ));
+    }
+    Ok(las)
+}
+
+/// What the walk over a LAS file's sections found besides the header items.
+struct Sections<'t> {
+    /// The letter of the last section (`' '` before any).
+    last: char,
+    seen_version: bool,
+    /// The column names on the `~A` line, if any.
+    a_names: Vec<String>,
+    /// The `~A` section's non-empty lines with their line numbers.
+    data_lines: Vec<(u64, &'t str)>,
+    /// Header lines without `MNEMONIC.`, as "line N".
+    skipped: Vec<String>,
+}
+
+/// Walks the sections of `lines`, taking the `~V ~W ~C ~P` items into `las` and keeping
+/// the `~A` lines for later.
+fn read_sections<'t>(
+    name: &str,
+    lines: &[&'t str],
+    las: &mut LasFile,
+) -> Result<Sections<'t>, WellsError> {
+    let mut found = Sections {
+        last: ' ',
+        seen_version: false,
+        a_names: Vec::new(),
+        data_lines: Vec::new(),
+        skipped: Vec::new(),
+    };
     for (i, raw) in lines.iter().enumerate() {
         let line_no = i as u64 + 1;
         let line = raw.trim_end_matches('\r');
         let trimmed = line.trim();
+        let section = found.last;
         if let Some(rest) = trimmed.strip_prefix('~') {
             let letter = rest
                 .chars()
@@ -131,17 +174,17 @@ pub fn parse(name: &str, bytes: &[u8]) -> Result<LasFile, WellsError> {
                 if section == 'A' {
                     return Err(err(name, line_no, "a second ~A data section"));
                 }
-                a_names = rest.split_whitespace().skip(1).map(str::to_owned).collect();
+                found.a_names = rest.split_whitespace().skip(1).map(str::to_owned).collect();
             }
             if letter == 'V' {
-                seen_v = true;
+                found.seen_version = true;
             }
-            section = letter;
+            found.last = letter;
             continue;
         }
         if section == 'A' {
             if !trimmed.is_empty() && !trimmed.starts_with('#') {
-                data_lines.push((line_no, trimmed));
+                found.data_lines.push((line_no, trimmed));
             }
             continue;
         }
@@ -159,58 +202,81 @@ pub fn parse(name: &str, bytes: &[u8]) -> Result<LasFile, WellsError> {
             continue; // ~O (other) and unknown sections are free text
         }
         let Some(item) = header_item(line, line_no) else {
-            skipped.push(format!("line {line_no}"));
+            found.skipped.push(format!("line {line_no}"));
             continue;
         };
-        match section {
-            'V' => {
-                match item.mnemonic.to_ascii_uppercase().as_str() {
-                    "VERS" => las.version = Some(item.data.clone()),
-                    "WRAP" => las.wrapped = item.data.trim().eq_ignore_ascii_case("YES"),
-                    _ => {}
-                }
-                if item.mnemonic.eq_ignore_ascii_case("VERS") && item.data.trim().starts_with('3') {
-                    return Err(err(
-                        name,
-                        line_no,
-                        format!(
-                            "LAS version {} is not supported (2.0 and 1.2 are)",
-                            item.data
-                        ),
-                    ));
-                }
-            }
-            'W' => {
-                if item.mnemonic.eq_ignore_ascii_case("NULL") {
-                    match item.data.trim().parse::<f64>() {
-                        Ok(v) => las.null = Some(v),
-                        Err(_) => las.warnings.push(format!(
-                            "{name}, line {line_no}: NULL value '{}' is not a number: ignored",
-                            item.data
-                        )),
-                    }
-                }
-                las.well.push(item);
-            }
-            'C' => las.curves.push(item),
-            _ => las.parameters.push(item),
-        }
+        take_header_item(name, section, item, las)?;
     }
-    if !seen_v {
+    Ok(found)
+}
+
+/// Takes one header item of section `section` (`V`, `W`, `C` or `P`) into `las`.
+fn take_header_item(
+    name: &str,
+    section: char,
+    item: HeaderItem,
+    las: &mut LasFile,
+) -> Result<(), WellsError> {
+    let line_no = item.line;
+    match section {
+        'V' => {
+            match item.mnemonic.to_ascii_uppercase().as_str() {
+                "VERS" => las.version = Some(item.data.clone()),
+                "WRAP" => las.wrapped = item.data.trim().eq_ignore_ascii_case("YES"),
+                _ => {}
+            }
+            if item.mnemonic.eq_ignore_ascii_case("VERS") && item.data.trim().starts_with('3') {
+                return Err(err(
+                    name,
+                    line_no,
+                    format!(
+                        "LAS version {} is not supported (2.0 and 1.2 are)",
+                        item.data
+                    ),
+                ));
+            }
+        }
+        'W' => {
+            if item.mnemonic.eq_ignore_ascii_case("NULL") {
+                match item.data.trim().parse::<f64>() {
+                    Ok(v) => las.null = Some(v),
+                    Err(_) => las.warnings.push(format!(
+                        "{name}, line {line_no}: NULL value '{}' is not a number: ignored",
+                        item.data
+                    )),
+                }
+            }
+            las.well.push(item);
+        }
+        'C' => las.curves.push(item),
+        _ => las.parameters.push(item),
+    }
+    Ok(())
+}
+
+/// The checks and notes on a LAS file's header once its sections are read; puts the
+/// curves in the `~A` line's order when it names them all in another order.
+fn check_header(
+    name: &str,
+    sections: &Sections,
+    line_count: u64,
+    las: &mut LasFile,
+) -> Result<(), WellsError> {
+    if !sections.seen_version {
         las.warnings
             .push(format!("{name}: no ~V (version) section; read as LAS 2.0"));
     }
-    if !skipped.is_empty() {
+    if !sections.skipped.is_empty() {
         las.warnings.push(format!(
             "{name}: {} header lines without 'MNEMONIC.' skipped: {}",
-            skipped.len(),
-            examples(&skipped)
+            sections.skipped.len(),
+            examples(&sections.skipped)
         ));
     }
-    if section != 'A' && data_lines.is_empty() {
+    if sections.last != 'A' && sections.data_lines.is_empty() {
         return Err(err(
             name,
-            lines.len() as u64,
+            line_count,
             "no ~A (data) section: the file ends before any log data",
         ));
     }
@@ -221,117 +287,136 @@ pub fn parse(name: &str, bytes: &[u8]) -> Result<LasFile, WellsError> {
             "no curves: the ~C (curve) section is missing or empty",
         ));
     }
-    // The ~A line may name the columns; when it names every curve in another order, that
-    // order is the data's (the depth curve listed last in ~C is a known defect).
-    if a_names.len() == las.curves.len() {
-        let mut order = Vec::with_capacity(a_names.len());
-        for a in &a_names {
-            let found = las.curves.iter().position(|c| {
-                c.mnemonic.eq_ignore_ascii_case(a)
-                    || (is_depth_name(a) && is_depth_name(&c.mnemonic))
-            });
-            match found {
-                Some(f) if !order.contains(&f) => order.push(f),
-                _ => {
-                    order.clear();
-                    break;
-                }
-            }
-        }
-        if order.len() == las.curves.len() && order.iter().enumerate().any(|(i, &o)| i != o) {
-            las.warnings.push(format!(
-                "{name}: the ~A line lists the curves in another order than ~C; the ~A order is used"
-            ));
-            las.curves = order.iter().map(|&o| las.curves[o].clone()).collect();
-        }
-    }
+    apply_a_line_order(name, &sections.a_names, las);
     if !is_depth_name(&las.curves[0].mnemonic) {
         las.warnings.push(format!(
             "{name}, line {}: the first curve '{}' is taken as depth",
             las.curves[0].line, las.curves[0].mnemonic
         ));
     }
-    let n = las.curves.len();
-    let null = las.null;
-    let parse_token = |token: &str, line: u64, column: usize| -> Result<Option<f64>, WellsError> {
-        let v: f64 = token.parse().map_err(|_| {
-            err(
-                name,
-                line,
-                format!("value {} '{token}' is not a number", column + 1),
-            )
-        })?;
-        if !v.is_finite() || null.is_some_and(|nv| v == nv) {
-            Ok(None)
-        } else {
-            Ok(Some(v))
-        }
-    };
-    let split = |l: &str| -> Vec<String> {
-        l.split(|c: char| c.is_whitespace() || c == ',')
-            .filter(|t| !t.is_empty())
-            .map(str::to_owned)
-            .collect()
-    };
-    if las.wrapped {
-        let mut row: Vec<Option<f64>> = Vec::with_capacity(n);
-        let mut row_line = 0;
-        for &(line_no, l) in &data_lines {
-            for token in split(l) {
-                if row.is_empty() {
-                    row_line = line_no;
-                }
-                row.push(parse_token(&token, line_no, row.len())?);
-                if row.len() == n {
-                    check_depth(name, row_line, &row)?;
-                    las.rows.push(std::mem::take(&mut row));
-                }
+    Ok(())
+}
+
+/// The ~A line may name the columns; when it names every curve in another order, that
+/// order is the data's (the depth curve listed last in ~C is a known defect).
+fn apply_a_line_order(name: &str, a_names: &[String], las: &mut LasFile) {
+    if a_names.len() != las.curves.len() {
+        return;
+    }
+    let mut order = Vec::with_capacity(a_names.len());
+    for a in a_names {
+        let found = las.curves.iter().position(|c| {
+            c.mnemonic.eq_ignore_ascii_case(a) || (is_depth_name(a) && is_depth_name(&c.mnemonic))
+        });
+        match found {
+            Some(f) if !order.contains(&f) => order.push(f),
+            _ => {
+                order.clear();
+                break;
             }
-        }
-        if !row.is_empty() {
-            las.warnings.push(format!(
-                "{name}, line {row_line}: an incomplete last depth row ({} of {n} values) dropped",
-                row.len()
-            ));
-        }
-    } else {
-        let last = data_lines.len();
-        for (k, &(line_no, l)) in data_lines.iter().enumerate() {
-            let tokens = split(l);
-            if tokens.len() != n {
-                if k + 1 == last && tokens.len() < n {
-                    las.warnings.push(format!(
-                        "{name}, line {line_no}: an incomplete last line ({} of {n} values) dropped",
-                        tokens.len()
-                    ));
-                    continue;
-                }
-                return Err(err(
-                    name,
-                    line_no,
-                    format!(
-                        "{} values where the ~C section defines {n} curves (WRAP is NO)",
-                        tokens.len()
-                    ),
-                ));
-            }
-            let row = tokens
-                .iter()
-                .enumerate()
-                .map(|(c, t)| parse_token(t, line_no, c))
-                .collect::<Result<Vec<_>, _>>()?;
-            check_depth(name, line_no, &row)?;
-            las.rows.push(row);
         }
     }
-    if las.rows.is_empty() {
-        return Err(err(
+    if order.len() == las.curves.len() && order.iter().enumerate().any(|(i, &o)| i != o) {
+        las.warnings.push(format!(
+            "{name}: the ~A line lists the curves in another order than ~C; the ~A order is used"
+        ));
+        las.curves = order.iter().map(|&o| las.curves[o].clone()).collect();
+    }
+}
+
+/// The value of data token `token` (column `column`, 0-based), `None` for the file's NULL
+/// value or a non-finite number.
+fn data_value(
+    name: &str,
+    null: Option<f64>,
+    token: &str,
+    line: u64,
+    column: usize,
+) -> Result<Option<f64>, WellsError> {
+    let v: f64 = token.parse().map_err(|_| {
+        err(
             name,
-            data_lines.first().map_or(lines.len() as u64, |d| d.0),
-            "the ~A section holds no depth rows",
+            line,
+            format!("value {} '{token}' is not a number", column + 1),
+        )
+    })?;
+    if !v.is_finite() || null.is_some_and(|nv| v == nv) {
+        Ok(None)
+    } else {
+        Ok(Some(v))
+    }
+}
+
+/// The tokens of a data line (separated by white space or commas).
+fn data_tokens(l: &str) -> Vec<String> {
+    l.split(|c: char| c.is_whitespace() || c == ',')
+        .filter(|t| !t.is_empty())
+        .map(str::to_owned)
+        .collect()
+}
+
+/// The depth rows of a wrapped `~A` section (`WRAP. YES`): values fill rows across lines.
+fn read_wrapped_rows(
+    name: &str,
+    data_lines: &[(u64, &str)],
+    las: &mut LasFile,
+) -> Result<(), WellsError> {
+    let n = las.curves.len();
+    let mut row: Vec<Option<f64>> = Vec::with_capacity(n);
+    let mut row_line = 0;
+    for &(line_no, l) in data_lines {
+        for token in data_tokens(l) {
+            if row.is_empty() {
+                row_line = line_no;
+            }
+            row.push(data_value(name, las.null, &token, line_no, row.len())?);
+            if row.len() == n {
+                check_depth(name, row_line, &row)?;
+                las.rows.push(std::mem::take(&mut row));
+            }
+        }
+    }
+    if !row.is_empty() {
+        las.warnings.push(format!(
+            "{name}, line {row_line}: an incomplete last depth row ({} of {n} values) dropped",
+            row.len()
         ));
     }
-    Ok(las)
+    Ok(())
+}
+
+/// The depth rows of an unwrapped `~A` section: one row per line.
+fn read_rows(name: &str, data_lines: &[(u64, &str)], las: &mut LasFile) -> Result<(), WellsError> {
+    let n = las.curves.len();
+    let last = data_lines.len();
+    for (k, &(line_no, l)) in data_lines.iter().enumerate() {
+        let tokens = data_tokens(l);
+        if tokens.len() != n {
+            if k + 1 == last && tokens.len() < n {
+                las.warnings.push(format!(
+                    "{name}, line {line_no}: an incomplete last line ({} of {n} values) dropped",
+                    tokens.len()
+                ));
+                continue;
+            }
+            return Err(err(
+                name,
+                line_no,
+                format!(
+                    "{} values where the ~C section defines {n} curves (WRAP is NO)",
+                    tokens.len()
+                ),
+            ));
+        }
+        let row = tokens
+            .iter()
+            .enumerate()
+            .map(|(c, t)| data_value(name, las.null, t, line_no, c))
+            .collect::<Result<Vec<_>, _>>()?;
+        check_depth(name, line_no, &row)?;
+        las.rows.push(row);
+    }
+    Ok(())
 }
 
 fn check_depth(name: &str, line: u64, row: &[Option<f64>]) -> Result<(), WellsError> {
@@ -544,33 +629,7 @@ pub(crate) fn read_las_wells(input: &Input, unit: Unit) -> Result<Holes, WellsEr
         let las = parse(&file.name, &file.bytes)?;
         report.holes_read += 1;
         report.warnings.extend(las.warnings.iter().cloned());
-        let depth_factor = match las.depth_unit() {
-            Some(u) => match Unit::parse(&u).or_else(|| {
-                matches!(
-                    u.to_ascii_uppercase().as_str(),
-                    "METER" | "METERS" | "METRE"
-                )
-                .then_some(Unit::Metre)
-            }) {
-                Some(from) => from.factor_to(unit),
-                None => {
-                    report.warnings.push(format!(
-                        "{}: depth unit '{u}' not recognised; depths read in {}",
-                        file.name,
-                        unit.name()
-                    ));
-                    1.0
-                }
-            },
-            None => {
-                report.warnings.push(format!(
-                    "{}: no depth unit; depths read in {}",
-                    file.name,
-                    unit.name()
-                ));
-                1.0
-            }
-        };
+        let depth_factor = depth_factor(&las, &file.name, unit, &mut report);
         let mut id = las
             .text("UWI")
             .or_else(|| las.text("WELL"))
@@ -581,85 +640,24 @@ pub(crate) fn read_las_wells(input: &Input, unit: Unit) -> Result<Holes, WellsEr
         } else {
             ids.insert(id.clone(), 1);
         }
-        let table_location = locations
-            .as_ref()
-            .and_then(|table| keys_of(&las).iter().find_map(|k| table.get(k).copied()));
-        let (header_xy, header_elevation) = header_location(&las, unit);
-        let (x, y) = match (table_location, header_xy) {
-            (Some(l), _) => (l.x, l.y),
-            (None, Some(xy)) => xy,
-            (None, None) => {
-                return Err(WellsError::Invalid {
-                    file: file.name.clone(),
-                    message: format!(
-                        "well '{id}' has no X/Y in its header and {}; give a locations table (well name or file -> x, y, elevation)",
-                        if locations.is_some() {
-                            "is not in the locations table"
-                        } else {
-                            "no locations table was given"
-                        }
-                    ),
-                });
-            }
-        };
-        let elevation = match (table_location.and_then(|l| l.elevation), header_elevation) {
-            (Some(e), _) => e,
-            (None, Some(e)) => e,
-            (None, None) => {
-                no_elevation.push(id.clone());
-                0.0
-            }
-        };
+        let (collar, elevation_known) =
+            well_location(&las, &file.name, &id, locations.as_ref(), unit)?;
+        if !elevation_known {
+            no_elevation.push(id.clone());
+        }
         let Some(c) = las.curve(curve) else {
             without_curve.push(format!("{} ({id})", file.name));
             holes.push(HoleSamples {
                 id,
-                trace: vec![DVec3::new(x, y, elevation)],
+                trace: vec![collar],
                 samples: Vec::new(),
             });
             continue;
         };
-        // Depth rows to intervals between midpoints of neighbouring depths.
-        let mut rows: Vec<(u64, f64, Option<f64>)> = las
-            .rows
-            .iter()
-            .enumerate()
-            .filter_map(|(r, row)| Some((r as u64, row[0]? * depth_factor, row[c])))
-            .collect();
-        report.rows_read += rows.len();
-        rows.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-        let before = rows.len();
-        rows.dedup_by(|b, a| a.1 == b.1);
-        report.duplicate_intervals += before - rows.len();
-        let step = las
-            .number("STEP")
-            .map(|(s, _)| (s * depth_factor).abs())
-            .filter(|s| *s > 0.0)
-            .unwrap_or(depth_factor);
-        let mut intervals = Vec::with_capacity(rows.len());
-        for (k, &(r, d, v)) in rows.iter().enumerate() {
-            let from = if k > 0 {
-                (rows[k - 1].1 + d) * 0.5
-            } else {
-                d - step * 0.5
-            };
-            let to = if k + 1 < rows.len() {
-                (rows[k + 1].1 + d) * 0.5
-            } else {
-                d + step * 0.5
-            };
-            intervals.push(Interval {
-                line: r,
-                from: from.min(d),
-                to: to.max(d),
-                value: v,
-                at: Some(d),
-            });
-        }
+        let intervals = depth_intervals(&las, c, depth_factor, &mut report);
         let intervals = resolve_intervals(&id, intervals, &mut report, &mut issues);
         let samples = interval_samples(&intervals, input.composite_length, &mut report)
             .map_err(|n| super::drillhole::too_many_composites(&file.name, &id, n))?;
-        let collar = DVec3::new(x, y, elevation);
         let bottom = samples.iter().map(|s| s.0).fold(0.0, f64::max);
         holes.push(HoleSamples {
             id,
@@ -673,6 +671,153 @@ pub(crate) fn read_las_wells(input: &Input, unit: Unit) -> Result<Holes, WellsEr
             crs = las.text("GDAT").or_else(|| las.text("HZCS"));
         }
     }
+    report_las_wells(
+        input,
+        curve,
+        &without_curve,
+        &no_elevation,
+        issues,
+        &mut report,
+    )?;
+    Ok(Holes {
+        name: input
+            .las
+            .iter()
+            .map(|f| f.name.as_str())
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(", "),
+        holes,
+        crs,
+        report,
+    })
+}
+
+/// The factor from a LAS file's depth unit to `unit` (1 with a warning when the unit is
+/// missing or not recognised).
+fn depth_factor(las: &LasFile, file_name: &str, unit: Unit, report: &mut ReadReport) -> f64 {
+    match las.depth_unit() {
+        Some(u) => match Unit::parse(&u).or_else(|| {
+            matches!(
+                u.to_ascii_uppercase().as_str(),
+                "METER" | "METERS" | "METRE"
+            )
+            .then_some(Unit::Metre)
+        }) {
+            Some(from) => from.factor_to(unit),
+            None => {
+                report.warnings.push(format!(
+                    "{file_name}: depth unit '{u}' not recognised; depths read in {}",
+                    unit.name()
+                ));
+                1.0
+            }
+        },
+        None => {
+            report.warnings.push(format!(
+                "{file_name}: no depth unit; depths read in {}",
+                unit.name()
+            ));
+            1.0
+        }
+    }
+}
+
+/// Well `id`'s collar (x, y, elevation) from the locations table, else its header; and
+/// whether its elevation is known (else 0).
+fn well_location(
+    las: &LasFile,
+    file_name: &str,
+    id: &str,
+    locations: Option<&HashMap<String, Location>>,
+    unit: Unit,
+) -> Result<(DVec3, bool), WellsError> {
+    let table_location =
+        locations.and_then(|table| keys_of(las).iter().find_map(|k| table.get(k).copied()));
+    let (header_xy, header_elevation) = header_location(las, unit);
+    let (x, y) = match (table_location, header_xy) {
+        (Some(l), _) => (l.x, l.y),
+        (None, Some(xy)) => xy,
+        (None, None) => {
+            return Err(WellsError::Invalid {
+                file: file_name.to_owned(),
+                message: format!(
+                    "well '{id}' has no X/Y in its header and {}; give a locations table (well name or file -> x, y, elevation)",
+                    if locations.is_some() {
+                        "is not in the locations table"
+                    } else {
+                        "no locations table was given"
+                    }
+                ),
+            });
+        }
+    };
+    Ok(
+        match (table_location.and_then(|l| l.elevation), header_elevation) {
+            (Some(e), _) => (DVec3::new(x, y, e), true),
+            (None, Some(e)) => (DVec3::new(x, y, e), true),
+            (None, None) => (DVec3::new(x, y, 0.0), false),
+        },
+    )
+}
+
+/// The depth rows of curve `c` as intervals between the midpoints of neighbouring depths
+/// (half a `STEP` beyond the first and last), sorted by depth, repeated depths dropped.
+fn depth_intervals(
+    las: &LasFile,
+    c: usize,
+    depth_factor: f64,
+    report: &mut ReadReport,
+) -> Vec<Interval> {
+    let mut rows: Vec<(u64, f64, Option<f64>)> = las
+        .rows
+        .iter()
+        .enumerate()
+        .filter_map(|(r, row)| Some((r as u64, row[0]? * depth_factor, row[c])))
+        .collect();
+    report.rows_read += rows.len();
+    rows.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+    let before = rows.len();
+    rows.dedup_by(|b, a| a.1 == b.1);
+    report.duplicate_intervals += before - rows.len();
+    let step = las
+        .number("STEP")
+        .map(|(s, _)| (s * depth_factor).abs())
+        .filter(|s| *s > 0.0)
+        .unwrap_or(depth_factor);
+    let mut intervals = Vec::with_capacity(rows.len());
+    for (k, &(r, d, v)) in rows.iter().enumerate() {
+        let from = if k > 0 {
+            (rows[k - 1].1 + d) * 0.5
+        } else {
+            d - step * 0.5
+        };
+        let to = if k + 1 < rows.len() {
+            (rows[k + 1].1 + d) * 0.5
+        } else {
+            d + step * 0.5
+        };
+        intervals.push(Interval {
+            line: r,
+            from: from.min(d),
+            to: to.max(d),
+            value: v,
+            at: Some(d),
+        });
+    }
+    intervals
+}
+
+/// The warnings on a set of LAS wells once all are read; an error when no file has the
+/// curve.
+fn report_las_wells(
+    input: &Input,
+    curve: &str,
+    without_curve: &[String],
+    no_elevation: &[String],
+    mut issues: Issues,
+    report: &mut ReadReport,
+) -> Result<(), WellsError> {
     if !without_curve.is_empty() {
         if without_curve.len() == input.las.len() {
             return Err(WellsError::Invalid {
@@ -683,14 +828,14 @@ pub(crate) fn read_las_wells(input: &Input, unit: Unit) -> Result<Holes, WellsEr
         report.warnings.push(format!(
             "{} LAS files have no curve '{curve}' and give no samples: {}",
             without_curve.len(),
-            examples(&without_curve)
+            examples(without_curve)
         ));
     }
     if !no_elevation.is_empty() {
         report.warnings.push(format!(
             "{} wells have no elevation (EREF/EKB/KB/EGL or a locations table): depths measured from z = 0: {}",
             no_elevation.len(),
-            examples(&no_elevation)
+            examples(no_elevation)
         ));
     }
     report.warnings.push(
@@ -704,19 +849,8 @@ pub(crate) fn read_las_wells(input: &Input, unit: Unit) -> Result<Holes, WellsEr
         )];
     }
     issues.overlap.clear();
-    issues.into_warnings("LAS", &mut report);
-    Ok(Holes {
-        name: input
-            .las
-            .iter()
-            .map(|f| f.name.as_str())
-            .take(3)
-            .collect::<Vec<_>>()
-            .join(", "),
-        holes,
-        crs,
-        report,
-    })
+    issues.into_warnings("LAS", report);
+    Ok(())
 }
 
 #[cfg(test)]

@@ -197,93 +197,7 @@ pub(crate) fn read_wells_json(
                 format!("'{id}' repeats wells[{first}].id"),
             ));
         }
-        let x = json_number(
-            name,
-            &format!("{at}.x"),
-            well.get("x").unwrap_or(&Value::Null),
-        )?;
-        let y = json_number(
-            name,
-            &format!("{at}.y"),
-            well.get("y").unwrap_or(&Value::Null),
-        )?;
-        let collar_z = match well.get("z") {
-            None | Some(Value::Null) => None,
-            Some(v) => Some(json_number(name, &format!("{at}.z"), v)?),
-        };
-        let samples = match well.get("samples") {
-            None | Some(Value::Null) => &Vec::new(),
-            Some(Value::Array(a)) => a,
-            Some(_) => {
-                return Err(json_error(
-                    name,
-                    &format!("{at}.samples"),
-                    "expected an array",
-                ));
-            }
-        };
-        let mut hole = HoleSamples {
-            id,
-            ..HoleSamples::default()
-        };
-        let mut deepest: Option<f64> = None;
-        for (s, sample) in samples.iter().enumerate() {
-            let sat = format!("{at}.samples[{s}]");
-            report.rows_read += 1;
-            let z = match (sample.get("z"), sample.get("depth")) {
-                (Some(z), _) if !z.is_null() => json_number(name, &format!("{sat}.z"), z)?,
-                (_, Some(d)) if !d.is_null() => {
-                    let depth = json_number(name, &format!("{sat}.depth"), d)?;
-                    let Some(top) = collar_z else {
-                        return Err(json_error(
-                            name,
-                            &format!("{sat}.depth"),
-                            "a depth needs the well's collar elevation 'z'",
-                        ));
-                    };
-                    top - depth
-                }
-                _ => return Err(json_error(name, &sat, "needs 'depth' or 'z'")),
-            };
-            let value = match sample.get("value") {
-                None | Some(Value::Null) => None,
-                Some(Value::Number(n)) => Some(
-                    n.as_f64()
-                        .filter(|f| f.is_finite())
-                        .ok_or_else(|| json_error(name, &format!("{sat}.value"), "not finite"))?,
-                ),
-                Some(Value::Bool(b)) => Some(if *b { 1.0 } else { 0.0 }),
-                Some(Value::String(t)) => {
-                    let reading = rules.read(t).map_err(|()| {
-                        json_error(
-                            name,
-                            &format!("{sat}.value"),
-                            format!("'{t}' is not a number nor a don't-know token"),
-                        )
-                    })?;
-                    match reading {
-                        Reading::Below(_) => report.below_detection += 1,
-                        Reading::Above(_) => report.above_detection += 1,
-                        _ => {}
-                    }
-                    rules.number(reading)
-                }
-                Some(other) => {
-                    return Err(json_error(
-                        name,
-                        &format!("{sat}.value"),
-                        format!("expected a number or null, found {other}"),
-                    ));
-                }
-            };
-            deepest = Some(deepest.map_or(z, |d: f64| d.min(z)));
-            hole.samples.push((DVec3::new(x, y, z), value));
-        }
-        let top = collar_z.or_else(|| hole.samples.iter().map(|s| s.0.z).reduce(f64::max));
-        if let (Some(top), Some(bottom)) = (top, deepest) {
-            hole.trace = vec![DVec3::new(x, y, top), DVec3::new(x, y, bottom.min(top))];
-        }
-        holes.push(hole);
+        holes.push(json_well(name, &at, id, well, &rules, &mut report)?);
     }
     report.holes_read = holes.len();
     Ok(Holes {
@@ -291,5 +205,126 @@ pub(crate) fn read_wells_json(
         holes,
         crs,
         report,
+    })
+}
+
+/// Well `id` (at JSON path `at`) of a wells JSON: its samples and its trace from the
+/// collar (or the highest sample) down to the deepest sample.
+fn json_well(
+    name: &str,
+    at: &str,
+    id: String,
+    well: &Value,
+    rules: &ValueRules,
+    report: &mut ReadReport,
+) -> Result<HoleSamples, WellsError> {
+    let x = json_number(
+        name,
+        &format!("{at}.x"),
+        well.get("x").unwrap_or(&Value::Null),
+    )?;
+    let y = json_number(
+        name,
+        &format!("{at}.y"),
+        well.get("y").unwrap_or(&Value::Null),
+    )?;
+    let collar_z = match well.get("z") {
+        None | Some(Value::Null) => None,
+        Some(v) => Some(json_number(name, &format!("{at}.z"), v)?),
+    };
+    let samples = match well.get("samples") {
+        None | Some(Value::Null) => &Vec::new(),
+        Some(Value::Array(a)) => a,
+        Some(_) => {
+            return Err(json_error(
+                name,
+                &format!("{at}.samples"),
+                "expected an array",
+            ));
+        }
+    };
+    let mut hole = HoleSamples {
+        id,
+        ..HoleSamples::default()
+    };
+    let mut deepest: Option<f64> = None;
+    for (s, sample) in samples.iter().enumerate() {
+        let sat = format!("{at}.samples[{s}]");
+        report.rows_read += 1;
+        let z = json_sample_z(name, &sat, sample, collar_z)?;
+        let value = json_sample_value(name, &sat, sample, rules, report)?;
+        deepest = Some(deepest.map_or(z, |d: f64| d.min(z)));
+        hole.samples.push((DVec3::new(x, y, z), value));
+    }
+    let top = collar_z.or_else(|| hole.samples.iter().map(|s| s.0.z).reduce(f64::max));
+    if let (Some(top), Some(bottom)) = (top, deepest) {
+        hole.trace = vec![DVec3::new(x, y, top), DVec3::new(x, y, bottom.min(top))];
+    }
+    Ok(hole)
+}
+
+/// The elevation of sample `sat`: its `z`, or its `depth` below the collar's `collar_z`.
+fn json_sample_z(
+    name: &str,
+    sat: &str,
+    sample: &Value,
+    collar_z: Option<f64>,
+) -> Result<f64, WellsError> {
+    match (sample.get("z"), sample.get("depth")) {
+        (Some(z), _) if !z.is_null() => json_number(name, &format!("{sat}.z"), z),
+        (_, Some(d)) if !d.is_null() => {
+            let depth = json_number(name, &format!("{sat}.depth"), d)?;
+            let Some(top) = collar_z else {
+                return Err(json_error(
+                    name,
+                    &format!("{sat}.depth"),
+                    "a depth needs the well's collar elevation 'z'",
+                ));
+            };
+            Ok(top - depth)
+        }
+        _ => Err(json_error(name, sat, "needs 'depth' or 'z'")),
+    }
+}
+
+/// The value of sample `sat`: a number, a boolean (1 or 0), a don't-know token or a
+/// detection-limit reading (counted in `report`), or `None` for null.
+fn json_sample_value(
+    name: &str,
+    sat: &str,
+    sample: &Value,
+    rules: &ValueRules,
+    report: &mut ReadReport,
+) -> Result<Option<f64>, WellsError> {
+    Ok(match sample.get("value") {
+        None | Some(Value::Null) => None,
+        Some(Value::Number(n)) => Some(
+            n.as_f64()
+                .filter(|f| f.is_finite())
+                .ok_or_else(|| json_error(name, &format!("{sat}.value"), "not finite"))?,
+        ),
+        Some(Value::Bool(b)) => Some(if *b { 1.0 } else { 0.0 }),
+        Some(Value::String(t)) => {
+            let reading = rules.read(t).map_err(|()| {
+                json_error(
+                    name,
+                    &format!("{sat}.value"),
+                    format!("'{t}' is not a number nor a don't-know token"),
+                )
+            })?;
+            match reading {
+                Reading::Below(_) => report.below_detection += 1,
+                Reading::Above(_) => report.above_detection += 1,
+                _ => {}
+            }
+            rules.number(reading)
+        }
+        Some(other) => {
+            return Err(json_error(
+                name,
+                &format!("{sat}.value"),
+                format!("expected a number or null, found {other}"),
+            ));
+        }
     })
 }
