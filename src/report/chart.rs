@@ -63,43 +63,126 @@ fn escape(text: &str) -> String {
         .replace('"', "&quot;")
 }
 
+/// The plot area's width and height.
+const PLOT_W: f64 = WIDTH - LEFT - RIGHT;
+const PLOT_H: f64 = HEIGHT - TOP - BOTTOM;
+
 /// The chart of `rows` with `title` (e.g. the variable and the density).
 pub fn grade_tonnage_svg(rows: &[GradeTonnageRow], units: &ReportUnits, title: &str) -> String {
-    let has_tonnes = rows.iter().any(|r| r.resource.tonnes.is_some());
-    let left_value = |r: &GradeTonnageRow| {
-        if has_tonnes {
+    let left = LeftAxis::new(rows, units);
+    let frame = Frame::new(rows, &left);
+    let mut s = String::new();
+    write_axes(&mut s, &frame, &left, units, title);
+    write_series(&mut s, &frame, &left, rows, units);
+    // Legend.
+    let _ = writeln!(
+        s,
+        r#"<g transform="translate({:.1} {:.1})"><line x1="0" y1="0" x2="24" y2="0" stroke="{TONNES_COLOUR}" stroke-width="2.5"/><text x="30" y="4">{}</text><line x1="110" y1="0" x2="134" y2="0" stroke="{GRADE_COLOUR}" stroke-width="2.5" stroke-dasharray="7 4"/><text x="140" y="4">mean grade</text></g>"#,
+        LEFT + 12.0,
+        TOP + 16.0,
+        left.name
+    );
+    s.push_str("</svg>\n");
+    s
+}
+
+/// What the left axis shows: tonnes when any row has them, else volume.
+struct LeftAxis {
+    tonnes: bool,
+    name: &'static str,
+    unit: &'static str,
+    /// The data attribute carrying a point's figure.
+    attr: &'static str,
+}
+
+impl LeftAxis {
+    fn new(rows: &[GradeTonnageRow], units: &ReportUnits) -> Self {
+        let tonnes = rows.iter().any(|r| r.resource.tonnes.is_some());
+        let (name, unit, attr) = if tonnes {
+            ("tonnes", units.tonnes, "data-tonnes")
+        } else {
+            ("volume", units.volume, "data-volume")
+        };
+        Self {
+            tonnes,
+            name,
+            unit,
+            attr,
+        }
+    }
+
+    /// Row `r`'s figure on the left axis.
+    fn value(&self, r: &GradeTonnageRow) -> f64 {
+        if self.tonnes {
             r.resource.tonnes.unwrap_or(0.0)
         } else {
             r.resource.volume_m3
         }
-    };
-    let (left_name, left_unit, left_attr) = if has_tonnes {
-        ("tonnes", units.tonnes, "data-tonnes")
-    } else {
-        ("volume", units.volume, "data-volume")
-    };
-    let cut = |f: fn(f64, f64) -> f64, init: f64, v: &dyn Fn(&GradeTonnageRow) -> Option<f64>| {
-        rows.iter().filter_map(v).fold(init, f)
-    };
-    let (xs, x0, x1) = ticks(
-        cut(f64::min, f64::INFINITY, &|r| Some(r.cutoff)),
-        cut(f64::max, f64::NEG_INFINITY, &|r| Some(r.cutoff)),
-        8,
-    );
-    let (ls, l0, l1) = ticks(0.0, cut(f64::max, 0.0, &|r| Some(left_value(r))), 6);
-    let grades = |r: &GradeTonnageRow| r.resource.mean_grade;
-    let (gs, g0, g1) = ticks(
-        cut(f64::min, f64::INFINITY, &grades).min(0.0),
-        cut(f64::max, f64::NEG_INFINITY, &grades).max(0.0),
-        6,
-    );
-    let plot_w = WIDTH - LEFT - RIGHT;
-    let plot_h = HEIGHT - TOP - BOTTOM;
-    let px = |x: f64| LEFT + (x - x0) / (x1 - x0) * plot_w;
-    let py_left = |y: f64| TOP + plot_h - (y - l0) / (l1 - l0) * plot_h;
-    let py_grade = |y: f64| TOP + plot_h - (y - g0) / (g1 - g0) * plot_h;
+    }
+}
 
-    let mut s = String::new();
+/// The three axes' ticks and ranges (cut-off; tonnes or volume; grade), and where a figure
+/// lands on the chart.
+struct Frame {
+    xs: Vec<f64>,
+    x0: f64,
+    x1: f64,
+    ls: Vec<f64>,
+    l0: f64,
+    l1: f64,
+    gs: Vec<f64>,
+    g0: f64,
+    g1: f64,
+}
+
+impl Frame {
+    fn new(rows: &[GradeTonnageRow], left: &LeftAxis) -> Self {
+        let cut =
+            |f: fn(f64, f64) -> f64, init: f64, v: &dyn Fn(&GradeTonnageRow) -> Option<f64>| {
+                rows.iter().filter_map(v).fold(init, f)
+            };
+        let (xs, x0, x1) = ticks(
+            cut(f64::min, f64::INFINITY, &|r| Some(r.cutoff)),
+            cut(f64::max, f64::NEG_INFINITY, &|r| Some(r.cutoff)),
+            8,
+        );
+        let (ls, l0, l1) = ticks(0.0, cut(f64::max, 0.0, &|r| Some(left.value(r))), 6);
+        let grades = |r: &GradeTonnageRow| r.resource.mean_grade;
+        let (gs, g0, g1) = ticks(
+            cut(f64::min, f64::INFINITY, &grades).min(0.0),
+            cut(f64::max, f64::NEG_INFINITY, &grades).max(0.0),
+            6,
+        );
+        Self {
+            xs,
+            x0,
+            x1,
+            ls,
+            l0,
+            l1,
+            gs,
+            g0,
+            g1,
+        }
+    }
+
+    fn px(&self, x: f64) -> f64 {
+        LEFT + (x - self.x0) / (self.x1 - self.x0) * PLOT_W
+    }
+
+    fn py_left(&self, y: f64) -> f64 {
+        TOP + PLOT_H - (y - self.l0) / (self.l1 - self.l0) * PLOT_H
+    }
+
+    fn py_grade(&self, y: f64) -> f64 {
+        TOP + PLOT_H - (y - self.g0) / (self.g1 - self.g0) * PLOT_H
+    }
+}
+
+/// The SVG's opening, background and title, the grid with its tick labels, the plot's
+/// frame and the three axis titles.
+fn write_axes(s: &mut String, frame: &Frame, left: &LeftAxis, units: &ReportUnits, title: &str) {
+    let (plot_w, plot_h) = (PLOT_W, PLOT_H);
     let _ = writeln!(
         s,
         r#"<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{HEIGHT}" viewBox="0 0 {WIDTH} {HEIGHT}" font-family="sans-serif" font-size="12">"#
@@ -114,34 +197,33 @@ pub fn grade_tonnage_svg(rows: &[GradeTonnageRow], units: &ReportUnits, title: &
         WIDTH / 2.0,
         escape(title)
     );
-    // Grid and axes.
-    for &x in &xs {
+    for &x in &frame.xs {
         let _ = writeln!(
             s,
             r##"<line x1="{0:.1}" y1="{TOP}" x2="{0:.1}" y2="{1:.1}" stroke="#e0e0e0"/><text x="{0:.1}" y="{2:.1}" text-anchor="middle">{3}</text>"##,
-            px(x),
+            frame.px(x),
             TOP + plot_h,
             TOP + plot_h + 18.0,
             label(x)
         );
     }
-    for &y in &ls {
+    for &y in &frame.ls {
         let _ = writeln!(
             s,
             r##"<line x1="{LEFT}" y1="{0:.1}" x2="{1:.1}" y2="{0:.1}" stroke="#e0e0e0"/><text x="{2:.1}" y="{3:.1}" text-anchor="end" fill="{TONNES_COLOUR}">{4}</text>"##,
-            py_left(y),
+            frame.py_left(y),
             LEFT + plot_w,
             LEFT - 6.0,
-            py_left(y) + 4.0,
+            frame.py_left(y) + 4.0,
             label(y)
         );
     }
-    for &g in &gs {
+    for &g in &frame.gs {
         let _ = writeln!(
             s,
             r#"<text x="{:.1}" y="{:.1}" fill="{GRADE_COLOUR}">{}</text>"#,
             LEFT + plot_w + 6.0,
-            py_grade(g) + 4.0,
+            frame.py_grade(g) + 4.0,
             label(g)
         );
     }
@@ -158,9 +240,10 @@ pub fn grade_tonnage_svg(rows: &[GradeTonnageRow], units: &ReportUnits, title: &
     );
     let _ = writeln!(
         s,
-        r#"<text transform="translate(20 {:.1}) rotate(-90)" text-anchor="middle" fill="{TONNES_COLOUR}">{left_name} ({})</text>"#,
+        r#"<text transform="translate(20 {:.1}) rotate(-90)" text-anchor="middle" fill="{TONNES_COLOUR}">{} ({})</text>"#,
         TOP + plot_h / 2.0,
-        escape(left_unit)
+        left.name,
+        escape(left.unit)
     );
     let _ = writeln!(
         s,
@@ -169,7 +252,16 @@ pub fn grade_tonnage_svg(rows: &[GradeTonnageRow], units: &ReportUnits, title: &
         TOP + plot_h / 2.0,
         escape(units.grade)
     );
-    // The two series.
+}
+
+/// The two series as lines, and every row's points carrying its figures.
+fn write_series(
+    s: &mut String,
+    frame: &Frame,
+    left: &LeftAxis,
+    rows: &[GradeTonnageRow],
+    units: &ReportUnits,
+) {
     let path = |points: Vec<(f64, f64)>| {
         points
             .iter()
@@ -179,11 +271,15 @@ pub fn grade_tonnage_svg(rows: &[GradeTonnageRow], units: &ReportUnits, title: &
     };
     let left_points: Vec<(f64, f64)> = rows
         .iter()
-        .map(|r| (px(r.cutoff), py_left(left_value(r))))
+        .map(|r| (frame.px(r.cutoff), frame.py_left(left.value(r))))
         .collect();
     let grade_points: Vec<(f64, f64)> = rows
         .iter()
-        .filter_map(|r| r.resource.mean_grade.map(|g| (px(r.cutoff), py_grade(g))))
+        .filter_map(|r| {
+            r.resource
+                .mean_grade
+                .map(|g| (frame.px(r.cutoff), frame.py_grade(g)))
+        })
         .collect();
     let _ = writeln!(
         s,
@@ -195,6 +291,7 @@ pub fn grade_tonnage_svg(rows: &[GradeTonnageRow], units: &ReportUnits, title: &
         r#"<path class="grade" d="{}" fill="none" stroke="{GRADE_COLOUR}" stroke-width="2.5" stroke-dasharray="7 4"/>"#,
         path(grade_points)
     );
+    let (left_name, left_attr) = (left.name, left.attr);
     for r in rows {
         let grade_attr = r
             .resource
@@ -204,14 +301,14 @@ pub fn grade_tonnage_svg(rows: &[GradeTonnageRow], units: &ReportUnits, title: &
         let _ = writeln!(
             s,
             r#"<circle class="point" cx="{:.2}" cy="{:.2}" r="3.5" fill="{TONNES_COLOUR}" data-cutoff="{}" {left_attr}="{}"{grade_attr}><title>cut-off {} {}: {left_name} {} {}, mean grade {}</title></circle>"#,
-            px(r.cutoff),
-            py_left(left_value(r)),
+            frame.px(r.cutoff),
+            frame.py_left(left.value(r)),
             r.cutoff,
-            left_value(r),
+            left.value(r),
             r.cutoff,
             escape(units.grade),
-            label(left_value(r)),
-            escape(left_unit),
+            label(left.value(r)),
+            escape(left.unit),
             r.resource
                 .mean_grade
                 .map(label)
@@ -221,20 +318,11 @@ pub fn grade_tonnage_svg(rows: &[GradeTonnageRow], units: &ReportUnits, title: &
             let _ = writeln!(
                 s,
                 r#"<circle cx="{:.2}" cy="{:.2}" r="3" fill="{GRADE_COLOUR}"/>"#,
-                px(r.cutoff),
-                py_grade(g)
+                frame.px(r.cutoff),
+                frame.py_grade(g)
             );
         }
     }
-    // Legend.
-    let _ = writeln!(
-        s,
-        r#"<g transform="translate({:.1} {:.1})"><line x1="0" y1="0" x2="24" y2="0" stroke="{TONNES_COLOUR}" stroke-width="2.5"/><text x="30" y="4">{left_name}</text><line x1="110" y1="0" x2="134" y2="0" stroke="{GRADE_COLOUR}" stroke-width="2.5" stroke-dasharray="7 4"/><text x="140" y="4">mean grade</text></g>"#,
-        LEFT + 12.0,
-        TOP + 16.0
-    );
-    s.push_str("</svg>\n");
-    s
 }
 
 #[cfg(test)]
