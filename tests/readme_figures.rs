@@ -1,8 +1,10 @@
-//! The figures `sample_wells/README.md` gives for what wellmesh makes of the sample wells are
-//! the program's own: each row of its two tables is run as written (output files moved to a
-//! scratch directory) and every figure compared with the program's to the precision printed.
-//! The tables are the only place those figures live: after a change that moves them, update
-//! the table (command, options and figures together), not this test.
+//! The figures `sample_wells/README.md` and `README.md` give that the program prints are the
+//! program's own: each row of the sample wells' tables is run as written (output files moved
+//! to a scratch directory) and every figure compared with the program's to the precision
+//! printed; the counts of the synthetic files' table and the up-hole stations named in the
+//! prose are compared with `inspect`'s; the defaults the README states with `serve --help`.
+//! The documents are the only place those figures live: after a change that moves them,
+//! update the document (command, options and figures together), not this test.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -242,5 +244,144 @@ fn the_resource_report_row_of_tom_zone_is_what_the_program_prints() {
             assert_printed(value, cell(row, column), column);
         }
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
+
+/// The number a cell or phrase starts with (spaces between thousands), e.g. 12000 of
+/// "12 000 intervals of 2 m".
+fn leading_number(text: &str) -> f64 {
+    let digits: String = text
+        .chars()
+        .take_while(|c| c.is_ascii_digit() || *c == ' ')
+        .filter(|c| c.is_ascii_digit())
+        .collect();
+    digits
+        .parse()
+        .unwrap_or_else(|_| panic!("{README}: {text:?} does not start with a number"))
+}
+
+/// The code spans of a cell, in order.
+fn code_spans(text: &str) -> Vec<&str> {
+    text.split('`').skip(1).step_by(2).collect()
+}
+
+#[test]
+fn the_synthetic_files_hold_the_wells_and_samples_the_table_gives() {
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(README)).unwrap();
+    let rows = table(&readme, "## Synthetic copper");
+    assert_eq!(
+        rows.len(),
+        3,
+        "{README}: the synthetic table has three rows"
+    );
+    for row in rows {
+        let files: Vec<String> = code_spans(cell(&row, "file"))
+            .iter()
+            .map(|f| format!("sample_wells/{f}"))
+            .collect();
+        let mut args: Vec<String> = vec!["inspect".into()];
+        match files.as_slice() {
+            [samples] => args.push(samples.clone()),
+            [collars, surveys, intervals] => {
+                let variable = code_spans(cell(&row, "value"))[0];
+                for (flag, file) in [
+                    ("--collars", collars),
+                    ("--surveys", surveys),
+                    ("--intervals", intervals),
+                ] {
+                    args.extend([flag.into(), file.clone()]);
+                }
+                args.extend(["--variable".into(), variable.into()]);
+            }
+            other => panic!("{README}: a row names {other:?}"),
+        }
+        args.push("--json".into());
+        let set: Value = serde_json::from_slice(&wellmesh(&args)).unwrap();
+        let what = |column: &str| format!("{column:?} of {files:?}");
+        assert_eq!(
+            set["wells"].as_f64().unwrap(),
+            leading_number(cell(&row, "wells")),
+            "{}",
+            what("wells")
+        );
+        assert_eq!(
+            set["samples"].as_f64().unwrap(),
+            leading_number(cell(&row, "samples")),
+            "{}",
+            what("samples")
+        );
+    }
+}
+
+#[test]
+fn the_up_hole_stations_named_under_the_inspect_table_are_those_the_program_warns_of() {
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(README)).unwrap();
+    let phrase = "warnings name the ";
+    let at = readme
+        .find(phrase)
+        .unwrap_or_else(|| panic!("{README}: no {phrase:?}"));
+    let stations = leading_number(&readme[at + phrase.len()..]);
+    let row = &table(&readme, "## What wellmesh reads from them")[0];
+    let set: Value = serde_json::from_slice(&wellmesh(&command(row)[1..])).unwrap();
+    let warnings: Vec<&str> = set["report"]["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w.as_str().unwrap())
+        .collect();
+    let expected = format!("the other {stations} stations are read as pointing up");
+    assert!(
+        warnings.iter().any(|w| w.contains(&expected)),
+        "{README}: {stations} up-hole stations; the program warns: {warnings:?}"
+    );
+}
+
+#[test]
+fn the_service_defaults_the_readme_states_are_those_of_serve_help() {
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
+    let help = String::from_utf8(wellmesh(&["serve".into(), "--help".into()])).unwrap();
+    // `--flag` (default VALUE) in the prose, and [--flag VALUE] in the synopsis.
+    let mut stated: Vec<(String, String)> = Vec::new();
+    for (i, _) in readme.match_indices("` (default ") {
+        let flag = &readme[readme[..i].rfind('`').unwrap() + 1..i];
+        let rest = &readme[i + "` (default ".len()..];
+        stated.push((flag.to_owned(), rest[..rest.find(')').unwrap()].to_owned()));
+    }
+    let synopsis = readme
+        .lines()
+        .find(|l| l.starts_with("`wellmesh serve ["))
+        .expect("README.md: the serve synopsis");
+    for option in synopsis.split('[').skip(1) {
+        let option = &option[..option.find(']').unwrap()];
+        if let Some((flag, value)) = option.split_once(' ')
+            && !value.chars().all(|c| c.is_ascii_uppercase())
+        {
+            stated.push((flag.to_owned(), value.to_owned()));
+        }
+    }
+    assert!(
+        stated.len() >= 3,
+        "README.md: expected the stated defaults of --bind, --lease-secs and --retention, found {stated:?}"
+    );
+    for (flag, value) in stated {
+        // The option's help runs from its `--flag <` line to the next option.
+        let start = help
+            .find(&format!("{flag} <"))
+            .unwrap_or_else(|| panic!("serve --help has no {flag}"));
+        let end = help[start..]
+            .find("\n      --")
+            .map_or(help.len(), |e| start + e);
+        let default = help[start..end]
+            .split_once("[default: ")
+            .map(|(_, d)| &d[..d.find(']').unwrap()])
+            .unwrap_or_else(|| panic!("serve --help gives no default for {flag}"));
+        assert_eq!(
+            default,
+            value.replace(' ', ""),
+            "README.md states {flag} (default {value}); serve --help: {default}"
+        );
     }
 }
