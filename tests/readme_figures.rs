@@ -385,3 +385,55 @@ fn the_service_defaults_the_readme_states_are_those_of_serve_help() {
         );
     }
 }
+
+/// The figure that follows `phrase` in `text`.
+fn figure_after<'a>(text: &'a str, phrase: &str) -> &'a str {
+    let at = text
+        .find(phrase)
+        .unwrap_or_else(|| panic!("{README}: no {phrase:?}"))
+        + phrase.len();
+    let rest = &text[at..];
+    let end = rest
+        .find(|c: char| !(c.is_ascii_digit() || c == '.' || c == ' '))
+        .unwrap_or(rest.len());
+    rest[..end].trim()
+}
+
+#[test]
+fn the_figures_in_the_prose_under_the_resource_report_are_the_programs() {
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(README)).unwrap();
+    let heading = "## The resource report of Tom Zone";
+    let row = &table(&readme, heading)[0];
+    let section = &readme[readme.find(heading).unwrap()..];
+    let dir = scratch("report-prose");
+    let summary = contour_summary(row, &dir);
+    let shell = &summary["shells"][0]["resource"];
+    let cv = &summary["report"]["cross_validation"]["thresholds"][0];
+    let percent = |v: &Value| v.as_f64().unwrap() * 100.0;
+    for (phrase, value, what) in [
+        (
+            "The model's mean (",
+            shell["mean_grade"].as_f64().unwrap(),
+            "the model's mean grade",
+        ),
+        (
+            "below the samples' (",
+            shell["samples"]["mean"].as_f64().unwrap(),
+            "the samples' mean grade",
+        ),
+        (
+            "Held out, ",
+            percent(&cv["ore_inside_share"]),
+            "held-out ore assays inside",
+        ),
+        (
+            "inside the shell and ",
+            percent(&cv["waste_outside_share"]),
+            "held-out waste assays outside",
+        ),
+    ] {
+        assert_printed(value, figure_after(section, phrase), what);
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
