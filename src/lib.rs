@@ -18,6 +18,7 @@ pub mod api;
 pub mod contour;
 pub mod dmt;
 pub mod export;
+pub mod field;
 pub mod grid;
 pub mod jobs;
 pub mod process;

@@ -5,7 +5,7 @@ mod common;
 
 use glam::DVec3;
 use wellmesh::contour::{
-    self, Anisotropy, ContourOptions, ContourRequest, Thresholds, UnknownMode,
+    self, Anisotropy, ContourOptions, ContourRequest, Interpolant, Thresholds, UnknownMode,
 };
 use wellmesh::dmt::{Method, Placement};
 use wellmesh::progress::NoProgress;
@@ -89,8 +89,10 @@ fn wells(
 }
 
 fn request(samples: SampleSet, thresholds: Vec<f64>, method: Option<Method>) -> ContourRequest {
+    // These tests judge DMT on the samples' own tetrahedra (the paper's method).
     ContourRequest {
         method,
+        interpolant: Interpolant::Linear,
         ..ContourRequest::samples(samples, Thresholds::new(thresholds).expect("thresholds"))
     }
 }
@@ -580,7 +582,36 @@ fn options_are_checked_once_and_name_the_option_at_fault() {
         request.resolved_method(true),
         Method::Dmt(Placement::Curvature { lattice: 9 })
     );
-    assert_eq!(request.resolved_method(false), Method::Dmt(Placement::Ibc));
+    assert_eq!(
+        request.resolved_method(false),
+        Method::Dmt(Placement::Curvature { lattice: 9 })
+    );
+    let request = base()
+        .into_request(contour::Source::Samples(wells(
+            3,
+            25.0,
+            5.0,
+            0.0,
+            -20.0,
+            1,
+            |p| Some(f64::from(p.z < -10.0)),
+        )))
+        .unwrap();
+    // A modelled indicator is smooth: IbC by default; raw 0/1 samples keep curvature.
+    assert_eq!(request.resolved_method(true), Method::Dmt(Placement::Ibc));
+    let linear = ContourOptions {
+        interpolant: Some("linear".into()),
+        ..base()
+    }
+    .into_request(contour::Source::Samples(SampleSet::default()))
+    .unwrap();
+    assert_eq!(
+        linear.resolved_method(true),
+        Method::Dmt(Placement::Curvature {
+            lattice: wellmesh::dmt::DEFAULT_CURVATURE_LATTICE
+        })
+    );
+    assert_eq!(linear.resolved_method(false), Method::Dmt(Placement::Ibc));
 }
 
 /// Volume and area errors of every method and triangulation on the UTM ellipsoid wells:

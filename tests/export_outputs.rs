@@ -198,6 +198,9 @@ fn result(shells: Vec<(f64, Vec<Body>)>, crs: Option<&str>) -> ContourResult {
         .collect();
     let summary = Summary {
         method: "ibc".to_owned(),
+        interpolant: "linear".into(),
+        model: None,
+        min_volume: None,
         relax_sweeps: 0,
         origin: ORIGIN,
         crs: crs.map(str::to_owned),

@@ -8,7 +8,9 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 use serde_json::Value;
-use wellmesh::contour::{self, ContourRequest, ContourResult, Thresholds, UnknownMode};
+use wellmesh::contour::{
+    self, ContourRequest, ContourResult, Interpolant, Thresholds, UnknownMode,
+};
 use wellmesh::export::{OutputOptions, all_outputs};
 use wellmesh::progress::NoProgress;
 use wellmesh::wells::{ReadReport, SampleSet, Well};
@@ -75,6 +77,7 @@ fn contoured() -> ContourResult {
     };
     let request = ContourRequest {
         unknown: UnknownMode::Drop,
+        interpolant: Interpolant::Linear,
         ..ContourRequest::samples(samples, Thresholds::new(vec![0.2, 0.6]).unwrap())
     };
     contour::run(&request, &NoProgress).expect("the pipeline contours the lenses")

@@ -146,6 +146,12 @@ fn every_contour_row_of_the_sample_wells_table_is_what_the_program_prints() {
         let summary = contour_summary(row, &dir);
         let what = |column: &str| format!("{column:?} of {:?}", cell(row, "command"));
         assert_eq!(summary["method"], cell(row, "method"), "{}", what("method"));
+        assert_eq!(
+            summary["interpolant"],
+            cell(row, "interpolant"),
+            "{}",
+            what("interpolant")
+        );
         let shells = summary["shells"].as_array().unwrap();
         let n = shells.len();
         let bodies = per_shell(row, "bodies", "+", n);

@@ -51,7 +51,13 @@ fn linear(p: DVec3) -> f64 {
     1.0 + p.x / 10.0 - p.z / 20.0
 }
 
+/// Runs on the samples' own tetrahedra (the linear interpolant) unless `options` names
+/// another: the closed forms here are of the linear interpolation of the samples.
 fn run(samples: SampleSet, options: ContourOptions) -> contour::ContourResult {
+    let options = ContourOptions {
+        interpolant: options.interpolant.clone().or(Some("linear".into())),
+        ..options
+    };
     let request = options
         .into_request(Source::Samples(samples))
         .expect("valid options");

@@ -78,6 +78,23 @@ pub struct MultipartInputs {
     min_volume: Option<f64>,
     /// Sweeps of the shape relaxation of IbC and CoI vertices (0 to 50; default 3).
     relax: Option<u32>,
+    /// `kriging` (default for samples) or `linear`.
+    interpolant: Option<String>,
+    /// The model's ranges `major,semi,minor` or a JSON array.
+    ranges: Option<String>,
+    /// The model's orientation `dipdir,dip,pitch` (degrees) or a JSON array.
+    orientation: Option<String>,
+    sill: Option<f64>,
+    nugget: Option<f64>,
+    /// Order of the spheroidal covariance: 3, 5 or 7.
+    spheroidal_order: Option<u8>,
+    /// `none`, `log` or `normal-score`.
+    transform: Option<String>,
+    top_cut: Option<f64>,
+    /// Finest infill step along the major axis.
+    resolution: Option<f64>,
+    max_samples: Option<u32>,
+    max_per_hole: Option<u32>,
     /// Draw the drill-hole traces in the GLB: true (default) or false.
     well_traces: Option<bool>,
     /// Draw the samples in the GLB: true (default) or false.
@@ -386,7 +403,9 @@ fn plain_reason(reason: &str, sent: Option<&Value>) -> String {
         .replace("expected f64", "expected a number")
 }
 
-const TEXT_FIELDS: [&str; 10] = [
+const TEXT_FIELDS: [&str; 12] = [
+    "interpolant",
+    "transform",
     "samples_csv",
     "collars_csv",
     "surveys_csv",
@@ -444,16 +463,17 @@ async fn inputs_from_multipart(
                     .map_err(|e| Problem::invalid_input("wells", format!("not JSON: {e}")))?;
                 inputs.insert(name, value);
             }
-            "thresholds" | "anisotropy" => {
+            "thresholds" | "anisotropy" | "ranges" | "orientation" => {
                 inputs.insert(name.clone(), number_list(&name, &text)?);
             }
-            "min_volume" | "composite_length" | "azimuth" | "dip" => {
+            "min_volume" | "composite_length" | "azimuth" | "dip" | "sill" | "nugget"
+            | "top_cut" | "resolution" => {
                 let value: f64 = text.trim().parse().map_err(|_| {
                     Problem::invalid_input(&name, format!("{:?} is not a number", text.trim()))
                 })?;
                 inputs.insert(name, Value::from(value));
             }
-            "relax" | "lattice" => {
+            "relax" | "lattice" | "spheroidal_order" | "max_samples" | "max_per_hole" => {
                 let value: u32 = text.trim().parse().map_err(|_| {
                     Problem::invalid_input(
                         &name,

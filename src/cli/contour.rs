@@ -113,6 +113,58 @@ pub struct Args {
     /// Write the grade–tonnage chart (tonnes and mean grade against cut-off) as SVG.
     #[arg(long, value_name = "OUT.svg")]
     pub chart: Option<std::path::PathBuf>,
+    /// Values between the samples: kriging (default for wells and drill holes: a model
+    /// between the holes, evaluated at infill points where the surface is, then contoured by
+    /// DMT) or linear (DMT on the samples' own Delaunay tetrahedra, the paper's method; the
+    /// only one for grids, and the one --anisotropy selects).
+    #[arg(long, value_name = "NAME", help_heading = MODEL)]
+    pub interpolant: Option<String>,
+
+    /// The model's ranges along its major, semi-major and minor axes (input units): how far
+    /// a sample's influence reaches. Default: from the intercepts at the lowest threshold
+    /// (their spread in the ore's plane, bounded by 1.5 to 6 hole spacings; the median true
+    /// thickness across).
+    #[arg(long, value_name = "MAJOR,SEMI,MINOR", value_parser = parse_triple, help_heading = MODEL)]
+    pub ranges: Option<[f64; 3]>,
+
+    /// The ore's orientation: dip direction, dip and pitch in degrees (the plane dips toward
+    /// the dip direction; the pitch turns the major axis in the plane from the strike).
+    /// Default: the principal axes of the intercepts.
+    #[arg(long, value_name = "DIPDIR,DIP,PITCH", value_parser = parse_triple, allow_negative_numbers = true, help_heading = MODEL)]
+    pub orientation: Option<[f64; 3]>,
+
+    /// The covariance's sill (default: the variance of the values, after any transform).
+    #[arg(long, value_name = "S", help_heading = MODEL)]
+    pub sill: Option<f64>,
+
+    /// The nugget: short-scale noise the model does not honour (default: the down-hole
+    /// variogram extrapolated to lag zero, at most half the sill).
+    #[arg(long, value_name = "N", help_heading = MODEL)]
+    pub nugget: Option<f64>,
+
+    /// Order of the spheroidal covariance: 3 (default), 5 or 7 (faster decay).
+    #[arg(long, value_name = "K", help_heading = MODEL)]
+    pub spheroidal_order: Option<u8>,
+
+    /// Transform of skewed grades before the fit: none (default), log, or normal-score.
+    #[arg(long, value_name = "NAME", help_heading = MODEL)]
+    pub transform: Option<String>,
+
+    /// Cap values above this before the fit (a top-cut of outliers).
+    #[arg(long, value_name = "VALUE", help_heading = MODEL)]
+    pub top_cut: Option<f64>,
+
+    /// Finest infill step along the major axis (input units); default 1/32 of the range.
+    #[arg(long, value_name = "LENGTH", help_heading = MODEL)]
+    pub resolution: Option<f64>,
+
+    /// Most samples in one kriging block's system (default 96).
+    #[arg(long, value_name = "N", help_heading = MODEL)]
+    pub max_samples: Option<u32>,
+
+    /// Most samples of one hole in one kriging block (default 12).
+    #[arg(long, value_name = "N", help_heading = MODEL)]
+    pub max_per_hole: Option<u32>,
 
     /// Print the summary JSON on standard output (for CI).
     #[arg(long)]
@@ -123,6 +175,8 @@ pub struct Args {
     pub quiet: bool,
 }
 
+const MODEL: &str = "The model between the holes";
+
 const EXAMPLES: &str = "\
 Examples:
   wellmesh contour sample_wells/copper_wells.csv -o copper.glb --summary copper.json
@@ -130,6 +184,9 @@ Examples:
   wellmesh contour --collars collar.csv --surveys survey.csv --intervals assay.csv \\
       --variable Zn -t 1.0 -o zn.glb --tileset out/
   wellmesh contour --grid head.nhdr -t 1150 --split 5 -o head.glb
+  wellmesh contour --collars collar.csv --surveys survey.csv --intervals assay.csv \\
+      --variable Zn_pct -t 5 --ranges 150,100,12 --orientation 236,33,30 -o zn5.glb
+  wellmesh contour grades.csv -t 0.5 --interpolant linear -o raw.glb
 
 Exit codes: 0 success; 1 the input or the computation failed (the message names the file,
 row and field); 2 bad command-line arguments (a flag's value out of its range included).";
@@ -168,6 +225,17 @@ impl Args {
             density_column: self.density_column.clone(),
             grade_tonnage: self.grade_tonnage.clone(),
             cross_validate: self.cross_validate,
+            interpolant: self.interpolant.clone(),
+            ranges: self.ranges,
+            orientation: self.orientation,
+            sill: self.sill,
+            nugget: self.nugget,
+            spheroidal_order: self.spheroidal_order,
+            transform: self.transform.clone(),
+            top_cut: self.top_cut,
+            resolution: self.resolution,
+            max_samples: self.max_samples,
+            max_per_hole: self.max_per_hole,
         }
     }
 
@@ -214,6 +282,25 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if args.json {
         println!("{}", serde_json::to_string_pretty(&result.summary)?);
     } else {
+        if let Some(m) = &result.summary.model {
+            let o = &m.params.orientation;
+            eprintln!(
+                "model: kriging, spheroidal order {}, ranges {:.1}/{:.1}/{:.1} {u} ({:?}), \
+                 orientation {:.0}/{:.0}/{:.0} ({:?}), nugget {:.3} of sill {:.3}",
+                m.params.order,
+                m.params.ranges[0],
+                m.params.ranges[1],
+                m.params.ranges[2],
+                m.params.sources.ranges,
+                o.dip_direction,
+                o.dip,
+                o.pitch,
+                m.params.sources.orientation,
+                m.params.nugget,
+                m.params.sill,
+                u = result.summary.unit
+            );
+        }
         for shell in &result.summary.shells {
             eprintln!(
                 "threshold {}: {} bodies, volume {:.6e} {u}^3, area {:.6e} {u}^2",

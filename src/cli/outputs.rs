@@ -210,6 +210,9 @@ mod tests {
         ContourResult {
             summary: Summary {
                 method: "ibc".into(),
+                interpolant: "linear".into(),
+                model: None,
+                min_volume: None,
                 relax_sweeps: 0,
                 origin: origin.to_array(),
                 crs: crs.map(str::to_owned),

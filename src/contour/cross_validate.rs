@@ -1,5 +1,5 @@
 //! Cross-validation by whole holes: every K-th hole is held out in turn, the field is built
-//! without it through the same step as the run's ([`super::classify`]), and its samples
+//! without it through the same step as the run's ([`super::prepare`]), and its samples
 //! are predicted by the piecewise-linear field of the training mesh.
 //!
 //! Invariant: a held-out sample never takes part in its own prediction (its whole hole is
@@ -8,7 +8,7 @@
 
 use serde::Serialize;
 
-use super::{Cancellable, Classified, ContourError, Frame, Source, classify};
+use super::{Cancellable, Classified, ContourError, Frame, Source};
 use crate::progress::{Progress, Stage};
 use crate::report::locate::Locator;
 use crate::wells::SampleSet;
@@ -215,6 +215,7 @@ pub(super) fn cross_validate(
     folds: u32,
     thresholds: &[f64],
     frame: &Frame,
+    fit: &dyn Fn(&SampleSet, &dyn Progress) -> Result<Classified, ContourError>,
     progress: &dyn Progress,
 ) -> Result<CrossValidation, ContourError> {
     let Source::Samples(samples) = source else {
@@ -248,11 +249,10 @@ pub(super) fn cross_validate(
         for &i in &held {
             training.values[i] = None;
         }
-        let (fitted, _) = classify(&Source::Samples(training), frame, &Cancellable(progress))
-            .map_err(|e| match e {
-                ContourError::Cancelled => e,
-                other => ContourError::CrossValidation(format!("fold {fold}: {other}")),
-            })?;
+        let fitted = fit(&training, &Cancellable(progress)).map_err(|e| match e {
+            ContourError::Cancelled => e,
+            other => ContourError::CrossValidation(format!("fold {fold}: {other}")),
+        })?;
         for (&i, p) in held.iter().zip(predict(&fitted, samples, &held, frame)) {
             per_sample[i] = Some(p);
         }

@@ -5,6 +5,7 @@
 //! `ContourResult::shells`, which are what every exporter writes.
 
 mod cross_validate;
+mod model;
 mod request;
 mod resource;
 mod summary;
@@ -17,9 +18,10 @@ use crate::tet::{TetError, TetMesh};
 use crate::wells::{ReadReport, SampleSet};
 
 pub use cross_validate::{CrossValidation, GradeScore, HoleScore, ThresholdScore};
+pub use model::ModelSummary;
 pub use request::{
-    Anisotropy, ContourOptions, ContourRequest, GridSource, MAX_THRESHOLDS, OptionError, Source,
-    Thresholds, UnknownMode, default_method, is_binary,
+    Anisotropy, ContourOptions, ContourRequest, GridSource, Interpolant, MAX_THRESHOLDS,
+    OptionError, Source, Thresholds, UnknownMode, default_method, is_binary,
 };
 pub use resource::{Density, DensitySummary, ReportRequest, ReportSummary, load_density_column};
 pub use summary::{BodySummary, ShellSummary, Summary, VolumeRange};
@@ -52,6 +54,8 @@ pub enum ContourError {
     Density(String),
     #[error("cross-validation: {0}")]
     CrossValidation(String),
+    #[error("model between the holes: {0}")]
+    Field(String),
     #[error("cancelled")]
     Cancelled,
 }
@@ -83,7 +87,7 @@ impl Frame {
 /// that the shells contour and the resource report integrates. When built from samples,
 /// `mesh.vertex_of_input[k]` is the vertex of the k-th sample with a known value (further
 /// vertices, if any, carry the field between the samples).
-struct Classified {
+pub(crate) struct Classified {
     mesh: TetMesh,
     values: Vec<f64>,
 }
@@ -110,43 +114,28 @@ fn tetrahedralize(
     Ok(Classified { mesh, values })
 }
 
-/// The tetrahedra and their values for the request's source, and the number of "don't
-/// know" samples (or blanked grid points) left out.
-fn classify(
-    source: &Source,
+/// The tetrahedra of a grid and their values, and the number of blanked points.
+fn classify_grid(
+    grid: &GridSource,
     frame: &Frame,
     progress: &dyn Progress,
-) -> Result<(Classified, usize), ContourError> {
+) -> Result<Prepared, ContourError> {
     progress.report(Stage::Tetrahedralize, 0.0);
-    let classified = match source {
-        Source::Grid(grid) => {
-            let mut mesh = crate::grid::tetrahedralize(&grid.volume, grid.split)?;
-            if frame.inverse.is_some() {
-                for p in &mut mesh.points {
-                    *p = frame.forward * *p;
-                }
-            }
-            let unknown = grid.volume.blanked.iter().filter(|&&b| b).count();
-            let values = grid.volume.values.clone();
-            (Classified { mesh, values }, unknown)
+    let mut mesh = crate::grid::tetrahedralize(&grid.volume, grid.split)?;
+    if frame.inverse.is_some() {
+        for p in &mut mesh.points {
+            *p = frame.forward * *p;
         }
-        Source::Samples(samples) => {
-            // The paper's rule: "don't know" samples are removed before tetrahedralizing.
-            let (points, values): (Vec<DVec3>, Vec<f64>) = samples
-                .points
-                .iter()
-                .zip(&samples.values)
-                .filter_map(|(p, v)| v.map(|v| (frame.forward * *p, v)))
-                .unzip();
-            let unknown = samples.values.len() - values.len();
-            if values.is_empty() {
-                return Err(ContourError::NoKnownSamples { unknown });
-            }
-            (tetrahedralize(&points, &values, progress)?, unknown)
-        }
-    };
+    }
+    let unknown = grid.volume.blanked.iter().filter(|&&b| b).count();
+    let values = grid.volume.values.clone();
     progress.report(Stage::Tetrahedralize, 1.0);
-    Ok(classified)
+    Ok(Prepared {
+        data: Classified { mesh, values },
+        levels: Vec::new(),
+        model: None,
+        unknown,
+    })
 }
 
 /// How each shell is extracted and what is kept of it.
@@ -219,14 +208,15 @@ fn shell(
 }
 
 /// One shell per threshold, in order, reporting each as its part of the contour stage.
-fn shells(
-    data: &Classified,
+fn prepared_shells(
+    prepared: &Prepared,
     thresholds: &[f64],
     how: &Extraction,
     progress: &dyn Progress,
-) -> Result<Vec<(Shell, Filtered)>, ContourError> {
-    let mut out = Vec::with_capacity(thresholds.len());
-    for (index, &threshold) in thresholds.iter().enumerate() {
+) -> Result<(Vec<Shell>, Vec<Filtered>), ContourError> {
+    let mut shells = Vec::with_capacity(thresholds.len());
+    let mut filtered = Vec::with_capacity(thresholds.len());
+    for index in 0..thresholds.len() {
         if progress.is_cancelled() {
             return Err(ContourError::Cancelled);
         }
@@ -235,9 +225,11 @@ fn shells(
             index,
             count: thresholds.len(),
         };
-        out.push(shell(data, threshold, how, &part)?);
+        let (s, f) = prepared.shell(index, thresholds, how, &part)?;
+        shells.push(s);
+        filtered.push(f);
     }
-    Ok(out)
+    Ok((shells, filtered))
 }
 
 /// What the summary says about the shells besides their measures: places that touch a
@@ -289,45 +281,45 @@ fn shell_warnings(shells: &[Shell], summaries: &[ShellSummary]) -> Vec<String> {
     warnings
 }
 
-/// Don't-know bounds: every sample tetrahedralized, unknowns taken as "no" then "yes"; each
-/// shell summary gets the two volumes and their bodies.
+/// Don't-know bounds: unknowns taken as "no" then "yes" (every sample tetrahedralized, or
+/// the model refitted on them); each shell summary gets the two volumes and their bodies.
 fn add_unknown_bounds(
     samples: &SampleSet,
-    known: &Classified,
+    request: &ContourRequest,
     thresholds: &[f64],
     how: &Extraction,
     summaries: &mut [ShellSummary],
     progress: &dyn Progress,
 ) -> Result<(), ContourError> {
     progress.report(Stage::Bounds, 0.0);
-    let all_points: Vec<DVec3> = samples
-        .points
-        .iter()
-        .map(|p| how.frame.forward * *p)
-        .collect();
-    let (lo, hi) = known
+    let (lo, hi) = samples
         .values
         .iter()
+        .flatten()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
             (lo.min(v), hi.max(v))
         });
     let max_threshold = thresholds.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let min_threshold = thresholds.iter().copied().fold(f64::INFINITY, f64::min);
-    let no = lo.min(min_threshold) - 1.0;
-    let yes = hi.max(max_threshold) + 1.0;
-    let with =
-        |fill: f64| -> Vec<f64> { samples.values.iter().map(|v| v.unwrap_or(fill)).collect() };
+    // 0/1 data keeps its classes (a model of an indicator stays one); grades go past
+    // every threshold.
+    let binary = is_binary(&samples.values);
+    let (no, yes) = if binary {
+        (0.0, 1.0)
+    } else {
+        (lo.min(min_threshold) - 1.0, hi.max(max_threshold) + 1.0)
+    };
     let cancellable = Cancellable(progress);
-    let pessimistic = tetrahedralize(&all_points, &with(no), &cancellable)?;
-    let optimistic = tetrahedralize(&all_points, &with(yes), &cancellable)?;
+    let low = prepare(samples, Some(no), request, thresholds, how, &cancellable)?;
+    let high = prepare(samples, Some(yes), request, thresholds, how, &cancellable)?;
     let origin = samples.origin;
     let count = summaries.len();
-    for (index, (summary, &threshold)) in summaries.iter_mut().zip(thresholds).enumerate() {
+    for (index, summary) in summaries.iter_mut().enumerate() {
         if progress.is_cancelled() {
             return Err(ContourError::Cancelled);
         }
-        let (low, _) = shell(&pessimistic, threshold, how, &cancellable)?;
-        let (high, _) = shell(&optimistic, threshold, how, &cancellable)?;
+        let (low, _) = low.shell(index, thresholds, how, &cancellable)?;
+        let (high, _) = high.shell(index, thresholds, how, &cancellable)?;
         let volume = |s: &Shell| s.bodies.iter().map(|b| b.volume).sum::<f64>();
         let bodies = |s: &Shell| {
             s.bodies
@@ -344,6 +336,95 @@ fn add_unknown_bounds(
         progress.report(Stage::Bounds, (index + 1) as f64 / count as f64);
     }
     Ok(())
+}
+
+/// The field every shell contours, the levels it is contoured at (the thresholds, or
+/// their transforms under a model) and the model, if there is one.
+struct Prepared {
+    data: Classified,
+    levels: Vec<f64>,
+    model: Option<(crate::field::Field, ModelSummary)>,
+    unknown: usize,
+}
+
+impl Prepared {
+    /// The shell of threshold `index`, at the threshold given.
+    fn shell(
+        &self,
+        index: usize,
+        thresholds: &[f64],
+        how: &Extraction,
+        progress: &dyn Progress,
+    ) -> Result<(Shell, Filtered), ContourError> {
+        let (mut shell, filtered) = shell(&self.data, self.levels[index], how, progress)?;
+        shell.threshold = thresholds[index];
+        if let Some((field, _)) = &self.model {
+            model::flag_truncated(&mut shell, field);
+        }
+        Ok((shell, filtered))
+    }
+}
+
+/// Puts a model's field values back on the scale of the grades (the inverse of its
+/// transform; sentinels included), for the resource report and cross-validation. The
+/// transform is monotone, so every vertex stays on the same side of every threshold.
+fn raw_scale(prepared: &mut Prepared) {
+    let Prepared { data, model, .. } = prepared;
+    if let Some((field, _)) = model
+        && field.transform.kind() != crate::field::TransformKind::None
+    {
+        for v in &mut data.values {
+            *v = field.transform.invert(*v);
+        }
+    }
+}
+
+/// Samples (with unknowns as `fill`, or dropped) under the request's interpolant: the
+/// linear mesh of the samples, or the model's.
+fn prepare(
+    samples: &SampleSet,
+    fill: Option<f64>,
+    request: &ContourRequest,
+    thresholds: &[f64],
+    how: &Extraction,
+    progress: &dyn Progress,
+) -> Result<Prepared, ContourError> {
+    let unknown = if fill.is_some() {
+        0
+    } else {
+        samples.values.iter().filter(|v| v.is_none()).count()
+    };
+    match &request.interpolant {
+        Interpolant::Kriging(options) => {
+            let m = model::model(samples, fill, thresholds, options, progress)?;
+            Ok(Prepared {
+                data: m.data,
+                levels: m.levels,
+                model: Some((m.field, m.summary)),
+                unknown,
+            })
+        }
+        Interpolant::Linear => {
+            let (points, values): (Vec<DVec3>, Vec<f64>) = samples
+                .points
+                .iter()
+                .zip(&samples.values)
+                .filter_map(|(p, v)| v.or(fill).map(|v| (how.frame.forward * *p, v)))
+                .unzip();
+            if values.is_empty() {
+                return Err(ContourError::NoKnownSamples { unknown });
+            }
+            progress.report(Stage::Tetrahedralize, 0.0);
+            let data = tetrahedralize(&points, &values, progress)?;
+            progress.report(Stage::Tetrahedralize, 1.0);
+            Ok(Prepared {
+                data,
+                levels: thresholds.to_vec(),
+                model: None,
+                unknown,
+            })
+        }
+    }
 }
 
 /// A progress that passes cancellation through but no reports (sub-steps whose own stages
@@ -392,7 +473,7 @@ pub fn run(
         .or_default(binary)
         .ok_or(ContourError::NoThresholds)?;
     let method = request.resolved_method(binary);
-    let how = Extraction {
+    let mut how = Extraction {
         method,
         relax: request.relax,
         min_volume: request.min_volume,
@@ -401,11 +482,25 @@ pub fn run(
     let samples = result_samples(&request.source);
     let origin = samples.origin;
 
-    let (data, unknown) = classify(&request.source, &how.frame, progress)?;
-    let (shells, filtered): (Vec<Shell>, Vec<Filtered>) =
-        shells(&data, &thresholds, &how, progress)?
-            .into_iter()
-            .unzip();
+    let mut prepared = match &request.source {
+        Source::Grid(grid) => classify_grid(grid, &how.frame, progress)?,
+        Source::Samples(s) => prepare(s, None, request, &thresholds, &how, progress)?,
+    };
+    if prepared.levels.is_empty() {
+        prepared.levels = thresholds.clone();
+    }
+    // With a model, specks smaller than one finest infill cell are not resolved: they are
+    // left out unless the request sets its own floor.
+    if how.min_volume.is_none()
+        && let Some((_, m)) = &prepared.model
+    {
+        how.min_volume = Some(model::finest_cell_volume(&m.infill));
+    }
+    let (shells, filtered) = prepared_shells(&prepared, &thresholds, &how, progress)?;
+    // The report integrates grades: back from the model's transform, once the shells are cut.
+    raw_scale(&mut prepared);
+    let unknown = prepared.unknown;
+    let data = &prepared.data;
 
     let mut shell_summaries: Vec<ShellSummary> = shells
         .iter()
@@ -421,7 +516,14 @@ pub fn run(
         && request.unknown == UnknownMode::Bounds
         && unknown > 0
     {
-        add_unknown_bounds(s, &data, &thresholds, &how, &mut shell_summaries, progress)?;
+        add_unknown_bounds(
+            s,
+            request,
+            &thresholds,
+            &how,
+            &mut shell_summaries,
+            progress,
+        )?;
     }
 
     let mut counts = serde_json::Map::new();
@@ -443,7 +545,7 @@ pub fn run(
     count("active_tets", active.unwrap_or(0));
     count("bodies", shells.iter().map(|s| s.bodies.len()).sum());
     let report_input = resource::ReportInput {
-        data: &data,
+        data,
         source: &request.source,
         request: &request.report,
         frame: &how.frame,
@@ -452,16 +554,26 @@ pub fn run(
     };
     let mut report = resource::report(&report_input, &shells, &mut shell_summaries)?;
     if let Some(folds) = request.report.cross_validate {
+        // Each fold is fitted as the run was: the same interpolant, the same options.
+        let fit = |training: &SampleSet, p: &dyn Progress| -> Result<Classified, ContourError> {
+            let mut fitted = prepare(training, None, request, &thresholds, &how, p)?;
+            raw_scale(&mut fitted);
+            Ok(fitted.data)
+        };
         report.cross_validation = Some(cross_validate::cross_validate(
             &request.source,
             folds,
             &thresholds,
             &how.frame,
+            &fit,
             progress,
         )?);
     }
     let summary = Summary {
         method: method.name().to_string(),
+        interpolant: request.interpolant.name().to_string(),
+        model: prepared.model.as_ref().map(|(_, m)| m.clone()),
+        min_volume: how.min_volume,
         relax_sweeps: match method {
             Method::Dmt(Placement::Ibc | Placement::Coi) => request.relax,
             _ => 0,

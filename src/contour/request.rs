@@ -11,7 +11,36 @@ use glam::{DMat3, DVec3};
 use serde::Serialize;
 
 use crate::dmt::{self, Method, Placement};
+use crate::field::{ModelOptions, Neighbourhood, Orientation, TransformKind};
 use crate::wells::SampleSet;
+
+/// How the values between the samples are made.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Interpolant {
+    /// The paper's method: DMT on the linear interpolation of the raw samples over their
+    /// Delaunay tetrahedra (the only one for grids).
+    Linear,
+    /// A kriging model between the holes, evaluated at infill points where the surface is
+    /// (`field`); the default for samples.
+    Kriging(ModelOptions),
+}
+
+impl Interpolant {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Interpolant::Linear => "linear",
+            Interpolant::Kriging(_) => "kriging",
+        }
+    }
+
+    /// The default for a source: the model for samples, linear for grids.
+    pub fn default_for(source: &Source) -> Self {
+        match source {
+            Source::Samples(_) => Interpolant::Kriging(ModelOptions::default()),
+            Source::Grid(_) => Interpolant::Linear,
+        }
+    }
+}
 
 /// Most thresholds (shells) one request may ask for.
 pub const MAX_THRESHOLDS: usize = 64;
@@ -199,6 +228,8 @@ pub struct ContourRequest {
     /// Density, grade unit, grade–tonnage cut-offs and cross-validation of the resource
     /// report.
     pub report: super::ReportRequest,
+    /// The values DMT contours: the samples' linear interpolation or the model.
+    pub interpolant: Interpolant,
 }
 
 impl ContourRequest {
@@ -206,6 +237,7 @@ impl ContourRequest {
     /// every body kept.
     pub fn new(source: Source, thresholds: Thresholds) -> Self {
         ContourRequest {
+            interpolant: Interpolant::default_for(&source),
             source,
             thresholds,
             method: None,
@@ -225,7 +257,9 @@ impl ContourRequest {
 }
 
 /// The method used when the request names none: the curvature placement (searched near the
-/// distance surface) for 0/1 data, IbC for grades. See docs/dmt.md for the measurements.
+/// distance surface) for 0/1 data, IbC for grades and for every modelled field (the model's
+/// indicator is smooth: the curvature search has nothing to straighten). See docs/dmt.md
+/// for the measurements.
 pub fn default_method(binary: bool) -> Method {
     if binary {
         Method::Dmt(Placement::Curvature {
@@ -239,10 +273,13 @@ pub fn default_method(binary: bool) -> Method {
 impl ContourRequest {
     /// The method this request runs on data of the given kind, with its lattice.
     pub fn resolved_method(&self, binary: bool) -> Method {
-        match (
-            self.method.unwrap_or_else(|| default_method(binary)),
-            self.lattice,
-        ) {
+        let modelled = matches!(self.interpolant, Interpolant::Kriging(_));
+        // A lattice given alone asks for the curvature placement, whatever the default.
+        let default = match (self.lattice, modelled) {
+            (Some(_), _) => default_method(true),
+            (None, modelled) => default_method(binary && !modelled),
+        };
+        match (self.method.unwrap_or(default), self.lattice) {
             (Method::Dmt(Placement::Curvature { .. }), Some(lattice)) => {
                 Method::Dmt(Placement::Curvature { lattice })
             }
@@ -300,6 +337,25 @@ pub struct ContourOptions {
     pub grade_tonnage: Option<String>,
     /// Hold out every K-th hole in turn (K folds).
     pub cross_validate: Option<u32>,
+    /// `kriging` (the default for samples) or `linear`.
+    pub interpolant: Option<String>,
+    /// The model's ranges `[major, semi-major, minor]`, input units.
+    pub ranges: Option<[f64; 3]>,
+    /// The model's orientation `[dip direction, dip, pitch]`, degrees.
+    pub orientation: Option<[f64; 3]>,
+    pub sill: Option<f64>,
+    pub nugget: Option<f64>,
+    /// Order of the spheroidal covariance: 3, 5 or 7.
+    pub spheroidal_order: Option<u8>,
+    /// `none`, `log` or `normal-score`.
+    pub transform: Option<String>,
+    pub top_cut: Option<f64>,
+    /// Finest infill step along the major axis, input units.
+    pub resolution: Option<f64>,
+    /// Most samples in one kriging block.
+    pub max_samples: Option<u32>,
+    /// Most samples of one hole in one kriging block.
+    pub max_per_hole: Option<u32>,
 }
 
 impl ContourOptions {
@@ -383,6 +439,164 @@ impl ContourOptions {
         })
     }
 
+    /// The interpolant on `source`, with the model's options checked.
+    fn interpolant(&self, source: &Source) -> Result<Interpolant, OptionError> {
+        let grid = matches!(source, Source::Grid(_));
+        let asked = match self
+            .interpolant
+            .as_deref()
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            None => None,
+            Some("linear") => Some(false),
+            Some("kriging") => Some(true),
+            Some(other) => {
+                return Err(OptionError::new(
+                    "interpolant",
+                    format!("unknown interpolant {other:?}: expected kriging or linear"),
+                ));
+            }
+        };
+        if grid && asked == Some(true) {
+            return Err(OptionError::new(
+                "interpolant",
+                "kriging models scattered samples; a grid is contoured as it is (linear)",
+            ));
+        }
+        // --anisotropy stretches the linear interpolation: given alone, it selects it.
+        let kriging = asked.unwrap_or(!grid && self.anisotropy.is_none());
+        let model_option = self.model_option_given();
+        if !kriging {
+            if let Some(name) = model_option
+                && !grid
+            {
+                return Err(OptionError::new(
+                    name,
+                    "applies to the kriging interpolant, not linear",
+                ));
+            }
+            return Ok(Interpolant::Linear);
+        }
+        if self.anisotropy.is_some() {
+            return Err(OptionError::new(
+                "anisotropy",
+                "stretches the linear interpolant; the kriging model takes ranges and orientation",
+            ));
+        }
+        Ok(Interpolant::Kriging(self.model_options()?))
+    }
+
+    /// The name of the first model option given, if any.
+    fn model_option_given(&self) -> Option<&'static str> {
+        [
+            ("ranges", self.ranges.is_some()),
+            ("orientation", self.orientation.is_some()),
+            ("sill", self.sill.is_some()),
+            ("nugget", self.nugget.is_some()),
+            ("spheroidal_order", self.spheroidal_order.is_some()),
+            ("transform", self.transform.is_some()),
+            ("top_cut", self.top_cut.is_some()),
+            ("resolution", self.resolution.is_some()),
+            ("max_samples", self.max_samples.is_some()),
+            ("max_per_hole", self.max_per_hole.is_some()),
+        ]
+        .into_iter()
+        .find(|(_, given)| *given)
+        .map(|(name, _)| name)
+    }
+
+    fn model_options(&self) -> Result<ModelOptions, OptionError> {
+        let positive = |name: &'static str, v: Option<f64>| -> Result<Option<f64>, OptionError> {
+            match v {
+                Some(x) if !(x.is_finite() && x > 0.0) => {
+                    Err(OptionError::new(name, "must be a positive finite number"))
+                }
+                other => Ok(other),
+            }
+        };
+        if let Some(r) = self.ranges
+            && r.iter().any(|x| !(x.is_finite() && *x > 0.0))
+        {
+            return Err(OptionError::new(
+                "ranges",
+                "each of [major, semi-major, minor] must be a positive finite number",
+            ));
+        }
+        let orientation = match self.orientation {
+            None => None,
+            Some([dd, dip, pitch]) => {
+                if ![dd, dip, pitch].iter().all(|x| x.is_finite()) || !(0.0..=90.0).contains(&dip) {
+                    return Err(OptionError::new(
+                        "orientation",
+                        "[dip direction, dip, pitch] in degrees, finite, dip from 0 to 90",
+                    ));
+                }
+                Some(Orientation {
+                    dip_direction: dd.rem_euclid(360.0),
+                    dip,
+                    pitch: pitch.rem_euclid(180.0),
+                })
+            }
+        };
+        let sill = positive("sill", self.sill)?;
+        let nugget = match self.nugget {
+            Some(n) if !(n.is_finite() && n >= 0.0) => {
+                return Err(OptionError::new("nugget", "must be a finite number >= 0"));
+            }
+            Some(n) if sill.is_some_and(|s| n >= s) => {
+                return Err(OptionError::new("nugget", "must be less than the sill"));
+            }
+            other => other,
+        };
+        let order = self
+            .spheroidal_order
+            .unwrap_or(crate::field::kernel::DEFAULT_ORDER);
+        if !crate::field::kernel::ORDERS.contains(&order) {
+            return Err(OptionError::new(
+                "spheroidal_order",
+                format!("must be one of {:?}", crate::field::kernel::ORDERS),
+            ));
+        }
+        let transform = match self.transform.as_deref() {
+            None => TransformKind::None,
+            Some(t) => t
+                .parse::<TransformKind>()
+                .map_err(|e| OptionError::new("transform", e))?,
+        };
+        let top_cut = match self.top_cut {
+            Some(c) if !c.is_finite() => {
+                return Err(OptionError::new("top_cut", "must be a finite number"));
+            }
+            other => other,
+        };
+        let resolution = positive("resolution", self.resolution)?;
+        let mut neighbourhood = Neighbourhood::default();
+        if let Some(m) = self.max_samples {
+            if !(4..=512).contains(&m) {
+                return Err(OptionError::new("max_samples", "must be from 4 to 512"));
+            }
+            neighbourhood.max_samples = m as usize;
+        }
+        if let Some(m) = self.max_per_hole {
+            if m == 0 {
+                return Err(OptionError::new("max_per_hole", "must be at least 1"));
+            }
+            neighbourhood.max_per_hole = m as usize;
+        }
+        Ok(ModelOptions {
+            ranges: self.ranges,
+            orientation,
+            sill,
+            nugget,
+            order,
+            transform,
+            top_cut,
+            resolution,
+            neighbourhood,
+        })
+    }
+
     /// Checks every option without a source (as [`ContourOptions::into_request`] does).
     pub fn check(&self) -> Result<(), OptionError> {
         self.clone()
@@ -394,6 +608,7 @@ impl ContourOptions {
     pub fn into_request(self, source: Source) -> Result<ContourRequest, OptionError> {
         let (method, lattice) = self.method()?;
         let report = self.report()?;
+        let interpolant = self.interpolant(&source)?;
         let thresholds = Thresholds::new(self.thresholds)?;
         let unknown = match self.unknown.as_deref() {
             None => UnknownMode::Drop,
@@ -449,6 +664,7 @@ impl ContourOptions {
             min_volume: self.min_volume,
             relax,
             report,
+            interpolant,
         })
     }
 }

@@ -311,7 +311,13 @@ pub(super) fn report(
         }
         summary.resource = Some(total);
     }
-    let cutoffs = cutoffs(input.request, &input.data.values, input.binary);
+    // The default sweep spans the data's values: the samples' (a model's mesh also holds
+    // infill values and the sentinels' value below every level), or the grid's.
+    let known: Vec<f64> = match input.source {
+        Source::Samples(s) => s.values.iter().flatten().copied().collect(),
+        Source::Grid(_) => input.data.values.clone(),
+    };
+    let cutoffs = cutoffs(input.request, &known, input.binary);
     let grade_tonnage = report::grade_tonnage(
         &input.data.mesh,
         &input.data.values,

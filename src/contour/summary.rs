@@ -65,6 +65,15 @@ pub struct VolumeRange {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Summary {
     pub method: String,
+    /// `kriging` (the model between the holes) or `linear` (the samples' own
+    /// interpolation, the paper's method; every grid).
+    pub interpolant: String,
+    /// Every parameter of the model, as fitted or given, and what its refinement did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub model: Option<super::ModelSummary>,
+    /// The smallest body kept (the request's, or with a model the finest infill cell's).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub min_volume: Option<f64>,
     /// Sweeps of the shape relaxation applied (0 when none: the paper's positions, or a
     /// method other than IbC and CoI).
     pub relax_sweeps: usize,

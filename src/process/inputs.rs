@@ -107,6 +107,45 @@ pub struct ProcessInputs {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(minimum = 2)]
     pub cross_validate: Option<u32>,
+    /// Values between the samples: `kriging` (default for samples: a model between the
+    /// holes, evaluated where the surface is, then contoured by DMT) or `linear` (DMT on the
+    /// samples' own tetrahedra, the paper's method; what `anisotropy` selects).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub interpolant: Option<String>,
+    /// The model's ranges `[major, semi-major, minor]` (input units); default from the
+    /// intercepts at the lowest threshold.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(min_items = 3, max_items = 3)]
+    pub ranges: Option<[f64; 3]>,
+    /// The ore's orientation `[dip direction, dip, pitch]` in degrees; default from the
+    /// principal axes of the intercepts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(min_items = 3, max_items = 3)]
+    pub orientation: Option<[f64; 3]>,
+    /// The covariance's sill; default the variance of the (transformed) values.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sill: Option<f64>,
+    /// The nugget; default the down-hole variogram at lag zero, at most half the sill.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nugget: Option<f64>,
+    /// Order of the spheroidal covariance: 3 (default), 5 or 7.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spheroidal_order: Option<u8>,
+    /// Transform before the fit: `none` (default), `log` or `normal-score`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transform: Option<String>,
+    /// Values above this are capped to it before the fit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub top_cut: Option<f64>,
+    /// Finest infill step along the major axis (input units); default 1/32 of the range.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resolution: Option<f64>,
+    /// Most samples in one kriging block (4 to 512; default 96).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_samples: Option<u32>,
+    /// Most samples of one hole in one kriging block (default 12).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_per_hole: Option<u32>,
     /// Draw the drill-hole traces (line primitives) in the GLB; default true.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub well_traces: Option<bool>,
@@ -261,6 +300,17 @@ impl ProcessInputs {
             density_column: self.density_column.clone(),
             grade_tonnage: self.grade_tonnage.clone(),
             cross_validate: self.cross_validate,
+            interpolant: self.interpolant.clone(),
+            ranges: self.ranges,
+            orientation: self.orientation,
+            sill: self.sill,
+            nugget: self.nugget,
+            spheroidal_order: self.spheroidal_order,
+            transform: self.transform.clone(),
+            top_cut: self.top_cut,
+            resolution: self.resolution,
+            max_samples: self.max_samples,
+            max_per_hole: self.max_per_hole,
         }
     }
 

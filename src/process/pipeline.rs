@@ -109,9 +109,10 @@ fn contour_failure(error: ContourError) -> JobFailure {
         ContourError::CrossValidation(_) => {
             JobFailure::input_field("cross_validate", error.to_string())
         }
-        ContourError::NoKnownSamples { .. } | ContourError::Grid(_) | ContourError::Tet(_) => {
-            JobFailure::input(error.to_string())
-        }
+        ContourError::NoKnownSamples { .. }
+        | ContourError::Grid(_)
+        | ContourError::Tet(_)
+        | ContourError::Field(_) => JobFailure::input(error.to_string()),
     }
 }
 

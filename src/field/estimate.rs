@@ -1,0 +1,384 @@
+//! Parameters found from the data: spacings, sill and nugget, the orientation of the ore
+//! and the ranges. Each is a documented rule a geologist can check and override
+//! (docs/field.md, *Parameters from the data*).
+
+use glam::{DMat3, DVec3};
+use serde::Serialize;
+
+use super::frame::Orientation;
+
+/// Runs of ore in a hole may bridge at most this many waste samples (internal dilution).
+pub const MAX_DILUTION: usize = 2;
+
+/// Fewer holes with an intercept than this and the ore's orientation and in-plane ranges
+/// are not taken from the intercepts (too few to span a plane).
+pub const MIN_INTERCEPT_HOLES: usize = 5;
+
+/// The in-plane ranges are the intercepts' spread (this many standard deviations along
+/// each in-plane principal axis) ...
+pub const SPREAD_SIGMAS: f64 = 3.0;
+/// ... kept between these multiples of the hole spacing: one lens's spread is its extent,
+/// but the spread of a field of many lenses is the field's, and a range that long would
+/// join them (measured on Tom Zone, docs/field.md).
+pub const RANGE_HOLE_SPACINGS: (f64, f64) = (1.5, 6.0);
+
+/// Intercepts farther than this many median distances from the median centre are left out
+/// of the orientation and spread.
+pub const TRIM_MEDIANS: f64 = 3.0;
+
+/// The shortest minor range, in sample spacings.
+pub const MIN_MINOR_SAMPLES: f64 = 3.0;
+
+/// The nugget is at most this share of the sill.
+pub const MAX_NUGGET_SHARE: f64 = 0.5;
+
+/// The samples the model is fitted on, in local coordinates, grouped by hole.
+#[derive(Debug, Clone, Default)]
+pub struct Samples {
+    pub points: Vec<DVec3>,
+    pub values: Vec<f64>,
+    pub holes: Vec<u32>,
+}
+
+impl Samples {
+    /// Sample indices per hole, each hole's in down-hole order (sorted along the line from
+    /// its first sample to its last as read).
+    pub fn by_hole(&self) -> Vec<Vec<u32>> {
+        let count = self
+            .holes
+            .iter()
+            .map(|&h| h as usize + 1)
+            .max()
+            .unwrap_or(0);
+        let mut out = vec![Vec::new(); count];
+        for (i, &h) in self.holes.iter().enumerate() {
+            out[h as usize].push(i as u32);
+        }
+        out.retain(|v| !v.is_empty());
+        for hole in &mut out {
+            let first = self.points[hole[0] as usize];
+            let last = self.points[*hole.last().unwrap_or(&hole[0]) as usize];
+            let dir = last - first;
+            hole.sort_by(|&a, &b| {
+                let ta = (self.points[a as usize] - first).dot(dir);
+                let tb = (self.points[b as usize] - first).dot(dir);
+                ta.total_cmp(&tb).then(a.cmp(&b))
+            });
+        }
+        out
+    }
+}
+
+/// A run of ore down one hole.
+#[derive(Debug, Clone, Copy)]
+pub struct Intercept {
+    pub hole: u32,
+    pub centre: DVec3,
+    /// From the first ore sample to the last, plus one sample spacing.
+    pub length: f64,
+    /// The hole's direction along the run.
+    pub direction: DVec3,
+}
+
+/// Spacings of the data: down the holes and between them.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Spacing {
+    /// Median distance between consecutive samples of a hole.
+    pub sample: f64,
+    /// Median distance from a hole's centroid to the nearest other hole's centroid.
+    pub hole: f64,
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    Some(v[v.len() / 2])
+}
+
+/// Sample and hole spacings (each at least a millionth of the data's extent).
+pub fn spacing(samples: &Samples, holes: &[Vec<u32>]) -> Spacing {
+    let p = &samples.points;
+    let steps: Vec<f64> = holes
+        .iter()
+        .flat_map(|h| {
+            h.windows(2)
+                .map(|w| p[w[0] as usize].distance(p[w[1] as usize]))
+        })
+        .filter(|d| *d > 0.0)
+        .collect();
+    let centroids: Vec<DVec3> = holes
+        .iter()
+        .map(|h| h.iter().map(|&i| p[i as usize]).sum::<DVec3>() / h.len() as f64)
+        .collect();
+    let nearest: Vec<f64> = centroids
+        .iter()
+        .enumerate()
+        .filter_map(|(i, c)| {
+            centroids
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .map(|(_, d)| c.distance(*d))
+                .filter(|d| *d > 0.0)
+                .min_by(f64::total_cmp)
+        })
+        .collect();
+    let (lo, hi) = p.iter().fold((DVec3::MAX, DVec3::MIN), |(lo, hi), q| {
+        (lo.min(*q), hi.max(*q))
+    });
+    let floor = ((hi - lo).length() * 1e-6).max(1e-9);
+    let sample = median(steps).unwrap_or(floor).max(floor);
+    let hole = median(nearest).unwrap_or(sample * 10.0).max(floor);
+    Spacing { sample, hole }
+}
+
+/// Sill (variance of the values) and nugget (the down-hole variogram extrapolated to lag
+/// zero from its first two lags, at most [`MAX_NUGGET_SHARE`] of the sill).
+pub fn sill_and_nugget(samples: &Samples, holes: &[Vec<u32>]) -> (f64, f64) {
+    let v = &samples.values;
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let sill = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n;
+    if sill <= 0.0 {
+        return (0.0, 0.0);
+    }
+    let gamma = |lag: usize| -> Option<f64> {
+        let (mut sum, mut count) = (0.0, 0usize);
+        for h in holes {
+            for w in h.windows(lag + 1) {
+                let d = v[w[0] as usize] - v[w[lag] as usize];
+                sum += 0.5 * d * d;
+                count += 1;
+            }
+        }
+        (count > 0).then(|| sum / count as f64)
+    };
+    let nugget = match (gamma(1), gamma(2)) {
+        (Some(g1), Some(g2)) => (2.0 * g1 - g2).clamp(0.0, g1),
+        (Some(g1), None) => g1,
+        _ => 0.0,
+    };
+    (sill, nugget.min(MAX_NUGGET_SHARE * sill))
+}
+
+/// The runs of samples at or above `level` down each hole, bridging at most
+/// [`MAX_DILUTION`] waste samples.
+pub fn intercepts(
+    samples: &Samples,
+    holes: &[Vec<u32>],
+    level: f64,
+    spacing: f64,
+) -> Vec<Intercept> {
+    let p = &samples.points;
+    let mut out = Vec::new();
+    for hole in holes {
+        let ore: Vec<usize> = hole
+            .iter()
+            .enumerate()
+            .filter(|(_, i)| samples.values[**i as usize] >= level)
+            .map(|(k, _)| k)
+            .collect();
+        let mut start = 0;
+        while start < ore.len() {
+            let mut end = start;
+            while end + 1 < ore.len() && ore[end + 1] - ore[end] <= MAX_DILUTION + 1 {
+                end += 1;
+            }
+            let run = &hole[ore[start]..=ore[end]];
+            let (a, b) = (
+                p[run[0] as usize],
+                p[*run.last().unwrap_or(&run[0]) as usize],
+            );
+            let direction = if a.distance(b) > 0.0 {
+                (b - a).normalize()
+            } else {
+                DVec3::Z
+            };
+            let ore_points: Vec<DVec3> = ore[start..=end]
+                .iter()
+                .map(|&k| p[hole[k] as usize])
+                .collect();
+            out.push(Intercept {
+                hole: samples.holes[run[0] as usize],
+                centre: ore_points.iter().sum::<DVec3>() / ore_points.len() as f64,
+                length: a.distance(b) + spacing,
+                direction,
+            });
+            start = end + 1;
+        }
+    }
+    out
+}
+
+/// Eigenvalues (descending) and unit eigenvectors of a symmetric matrix, by Jacobi sweeps.
+pub fn principal_axes(m: DMat3) -> ([f64; 3], [DVec3; 3]) {
+    let mut a = m.to_cols_array_2d();
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for _ in 0..50 {
+        let off = a[0][1].abs() + a[0][2].abs() + a[1][2].abs();
+        if off < 1e-15 * (a[0][0].abs() + a[1][1].abs() + a[2][2].abs() + 1e-300) {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if a[p][q].abs() < 1e-300 {
+                continue;
+            }
+            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            for row in &mut a {
+                let (akp, akq) = (row[p], row[q]);
+                row[p] = c * akp - s * akq;
+                row[q] = s * akp + c * akq;
+            }
+            let (rp, rq) = (a[p], a[q]);
+            for k in 0..3 {
+                a[p][k] = c * rp[k] - s * rq[k];
+                a[q][k] = s * rp[k] + c * rq[k];
+            }
+            for row in &mut v {
+                let (vp, vq) = (row[p], row[q]);
+                row[p] = c * vp - s * vq;
+                row[q] = s * vp + c * vq;
+            }
+        }
+    }
+    let mut order = [0, 1, 2];
+    order.sort_by(|&i, &j| a[j][j].total_cmp(&a[i][i]));
+    let vals = order.map(|i| a[i][i].max(0.0));
+    let vecs = order.map(|i| DVec3::new(v[0][i], v[1][i], v[2][i]).normalize());
+    (vals, vecs)
+}
+
+/// What the intercepts say of the ore: its orientation, in-plane spread and thickness.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct InterceptGeometry {
+    pub orientation: Orientation,
+    /// [`SPREAD_SIGMAS`] standard deviations of the intercept centres along the major and
+    /// semi-major axes (before the hole-spacing bounds).
+    pub spread: [f64; 2],
+    /// Median over holes of the true thickness of each hole's longest intercept.
+    pub thickness: f64,
+    pub holes: usize,
+    pub intercepts: usize,
+}
+
+/// The orientation and extent of the ore from the intercepts at `level`, when at least
+/// [`MIN_INTERCEPT_HOLES`] holes cut it.
+pub fn intercept_geometry(intercepts: &[Intercept]) -> Option<InterceptGeometry> {
+    let mut holes: Vec<u32> = intercepts.iter().map(|i| i.hole).collect();
+    holes.sort_unstable();
+    holes.dedup();
+    if holes.len() < MIN_INTERCEPT_HOLES {
+        return None;
+    }
+    // Intercepts far from the others (an exploration hole's patch) would swing the axes:
+    // keep those within TRIM_MEDIANS median distances of the coordinate-wise median.
+    let median_centre = DVec3::new(
+        median(intercepts.iter().map(|i| i.centre.x).collect())?,
+        median(intercepts.iter().map(|i| i.centre.y).collect())?,
+        median(intercepts.iter().map(|i| i.centre.z).collect())?,
+    );
+    let typical = median(
+        intercepts
+            .iter()
+            .map(|i| i.centre.distance(median_centre))
+            .collect(),
+    )?;
+    let kept: Vec<&Intercept> = intercepts
+        .iter()
+        .filter(|i| i.centre.distance(median_centre) <= TRIM_MEDIANS * typical.max(1e-9))
+        .collect();
+    let intercepts = kept;
+    // Centres weighted by length: a long intercept is more of the ore than a short one.
+    let total: f64 = intercepts.iter().map(|i| i.length).sum();
+    let mean = intercepts
+        .iter()
+        .map(|i| i.centre * i.length)
+        .sum::<DVec3>()
+        / total;
+    let mut cov = DMat3::ZERO;
+    for i in &intercepts {
+        let d = i.centre - mean;
+        cov += DMat3::from_cols(d * d.x, d * d.y, d * d.z) * i.length;
+    }
+    cov *= 1.0 / total;
+    let (vals, vecs) = principal_axes(cov);
+    if vals[1] <= 0.0 {
+        return None;
+    }
+    let normal = vecs[2];
+    let mut longest: std::collections::HashMap<u32, &Intercept> = std::collections::HashMap::new();
+    for &i in &intercepts {
+        let e = longest.entry(i.hole).or_insert(i);
+        if i.length > e.length {
+            *e = i;
+        }
+    }
+    let thickness = median(
+        longest
+            .values()
+            .map(|i| i.length * i.direction.dot(normal).abs().max(0.1))
+            .collect(),
+    )?;
+    Some(InterceptGeometry {
+        orientation: Orientation::from_axes(vecs[0], normal),
+        spread: [
+            SPREAD_SIGMAS * vals[0].sqrt(),
+            SPREAD_SIGMAS * vals[1].sqrt(),
+        ],
+        thickness,
+        holes: holes.len(),
+        intercepts: intercepts.len(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn principal_axes_of_a_rotated_diagonal() {
+        let r = DMat3::from_rotation_z(0.4) * DMat3::from_rotation_x(0.3);
+        let m = r * DMat3::from_diagonal(DVec3::new(9.0, 4.0, 1.0)) * r.transpose();
+        let (vals, vecs) = principal_axes(m);
+        assert!((vals[0] - 9.0).abs() < 1e-9 && (vals[2] - 1.0).abs() < 1e-9);
+        assert!((m * vecs[0] - vecs[0] * 9.0).length() < 1e-9);
+    }
+
+    /// Vertical holes on a 20 m grid through a flat slab 6 m thick at z in [0, 6):
+    /// intercepts give a flat orientation, 6 m thickness and the grid's spread.
+    #[test]
+    fn intercepts_of_a_flat_slab() {
+        let mut s = Samples::default();
+        let mut hole = 0;
+        for ix in 0..6 {
+            for iy in 0..6 {
+                for k in 0..20 {
+                    let z = -10.0 + f64::from(k) * 1.5;
+                    s.points
+                        .push(DVec3::new(f64::from(ix) * 20.0, f64::from(iy) * 20.0, z));
+                    s.values
+                        .push(if (0.0..6.0).contains(&z) { 1.0 } else { 0.0 });
+                    s.holes.push(hole);
+                }
+                hole += 1;
+            }
+        }
+        let holes = s.by_hole();
+        let sp = spacing(&s, &holes);
+        assert!((sp.sample - 1.5).abs() < 1e-9 && (sp.hole - 20.0).abs() < 1e-9);
+        let cuts = intercepts(&s, &holes, 0.5, sp.sample);
+        assert_eq!(cuts.len(), 36);
+        let g = intercept_geometry(&cuts).unwrap();
+        assert!(g.orientation.dip < 1e-6, "{:?}", g.orientation);
+        assert!((g.thickness - 6.0).abs() < 1e-9, "{}", g.thickness);
+        // A uniform 6 x 6 grid 100 m wide has a standard deviation of 34.2 m per axis.
+        assert!((g.spread[0] - 3.0 * 34.156).abs() < 0.1, "{:?}", g.spread);
+        let (sill, nugget) = sill_and_nugget(&s, &holes);
+        assert!(sill > 0.0 && nugget <= MAX_NUGGET_SHARE * sill);
+    }
+}

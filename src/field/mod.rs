@@ -1,0 +1,326 @@
+//! The field between the holes: a kriging model fitted to the samples, evaluated where the
+//! surface is.
+//!
+//! [`Field::fit`] finds every parameter the request leaves open from the data (sill and
+//! nugget from the variance and the down-hole variogram, the ore's orientation and ranges
+//! from the intercepts at the lowest level), builds a [`kriging::BlockKriging`] in the
+//! anisotropy ellipsoid's range units, and [`infill::infill`] places the points where the
+//! field is evaluated. `contour` tetrahedralizes the samples with those points and runs
+//! DMT unchanged on the field's values (docs/field.md).
+//!
+//! This is a geometry room: no async runtime, no web framework, no database.
+
+pub mod estimate;
+pub mod frame;
+pub mod infill;
+pub mod kernel;
+pub mod kriging;
+pub mod transform;
+
+use glam::DVec3;
+use serde::Serialize;
+
+pub use estimate::{InterceptGeometry, Samples, Spacing};
+pub use frame::{Ellipsoid, Orientation};
+pub use kriging::Neighbourhood;
+pub use transform::{Transform, TransformKind};
+
+/// What a request may fix of the model; everything left `None` is found from the data.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelOptions {
+    /// Ranges along the major, semi-major and minor axes, in input units.
+    pub ranges: Option<[f64; 3]>,
+    pub orientation: Option<Orientation>,
+    /// Sill and nugget in the units of the (transformed) values squared.
+    pub sill: Option<f64>,
+    pub nugget: Option<f64>,
+    /// Order of the spheroidal covariance (3, 5 or 7).
+    pub order: u8,
+    pub transform: TransformKind,
+    /// Values above this are capped to it before the fit.
+    pub top_cut: Option<f64>,
+    /// Finest infill step along the major axis, input units; `None`: 1/32 of the range.
+    pub resolution: Option<f64>,
+    pub neighbourhood: Neighbourhood,
+}
+
+impl Default for ModelOptions {
+    fn default() -> Self {
+        ModelOptions {
+            ranges: None,
+            orientation: None,
+            sill: None,
+            nugget: None,
+            order: kernel::DEFAULT_ORDER,
+            transform: TransformKind::None,
+            top_cut: None,
+            resolution: None,
+            neighbourhood: Neighbourhood::default(),
+        }
+    }
+}
+
+/// Where a parameter came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Source {
+    Given,
+    /// From the intercepts at the lowest level.
+    Intercepts,
+    /// From the down-hole variogram or the variance.
+    Variogram,
+    /// No rule applied (too few holes cut the ore): the documented fallback.
+    Default,
+}
+
+/// Every parameter of a fitted model, as the summary records it: enough to reproduce the
+/// run by passing them back as options.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FieldParams {
+    pub kernel: String,
+    pub order: u8,
+    pub sill: f64,
+    pub nugget: f64,
+    /// Major, semi-major, minor, input units.
+    pub ranges: [f64; 3],
+    pub orientation: Orientation,
+    pub sources: ParamSources,
+    pub transform: TransformKind,
+    pub top_cut: Option<f64>,
+    /// Samples whose value the top-cut lowered.
+    pub top_cut_samples: usize,
+    pub neighbourhood: Neighbourhood,
+    pub spacing: Spacing,
+    /// What the intercepts said, when enough holes cut the ore (before the bounds).
+    pub intercepts: Option<InterceptGeometry>,
+    pub samples: usize,
+    pub holes: usize,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ParamSources {
+    pub sill: Source,
+    pub nugget: Source,
+    pub orientation: Source,
+    pub ranges: Source,
+}
+
+/// A fitted model.
+#[derive(Debug)]
+pub struct Field {
+    pub params: FieldParams,
+    pub transform: Transform,
+    pub ellipsoid: Ellipsoid,
+    kriging: kriging::BlockKriging,
+    samples_unit: Vec<DVec3>,
+}
+
+/// Why a model cannot be fitted.
+#[derive(Debug, thiserror::Error)]
+pub enum FieldError {
+    #[error("no samples with a known value to model")]
+    NoSamples,
+    #[error("{0}")]
+    Option(String),
+    #[error("cancelled")]
+    Cancelled,
+}
+
+impl Field {
+    /// Fits the model to `samples` (raw values) for the raw `levels` (thresholds), with
+    /// what `options` fixes and the rest from the data.
+    pub fn fit(
+        samples: &Samples,
+        levels: &[f64],
+        options: &ModelOptions,
+    ) -> Result<Field, FieldError> {
+        if samples.values.is_empty() {
+            return Err(FieldError::NoSamples);
+        }
+        let kernel = kernel::Spheroidal::new(options.order).ok_or_else(|| {
+            FieldError::Option(format!(
+                "spheroidal order {} is not one of {:?}",
+                options.order,
+                kernel::ORDERS
+            ))
+        })?;
+        let (values, top_cut_samples) = top_cut(&samples.values, options.top_cut);
+        let transform = Transform::fit(options.transform, &values);
+        let t = Samples {
+            points: samples.points.clone(),
+            values: values.iter().map(|&v| transform.apply(v)).collect(),
+            holes: samples.holes.clone(),
+        };
+        let holes = t.by_hole();
+        let spacing = estimate::spacing(&t, &holes);
+        let (sill, nugget, sill_nugget_sources) = sill_and_nugget(&t, &holes, options);
+        let level = levels.iter().copied().fold(f64::INFINITY, f64::min);
+        let cuts = estimate::intercepts(&t, &holes, transform.apply(level), spacing.sample);
+        let geometry = estimate::intercept_geometry(&cuts);
+        let (orientation, ranges, orientation_source, range_source) =
+            shape(options, geometry.as_ref(), spacing);
+        let ellipsoid = Ellipsoid::new(orientation, ranges);
+        let samples_unit: Vec<DVec3> = t.points.iter().map(|p| ellipsoid.to_unit(*p)).collect();
+        let nugget_share = if sill > 0.0 {
+            (nugget / sill).clamp(0.0, 0.99)
+        } else {
+            0.0
+        };
+        let kriging = kriging::BlockKriging::new(
+            kernel,
+            nugget_share,
+            samples_unit.clone(),
+            t.values.clone(),
+            t.holes.clone(),
+            options.neighbourhood,
+        );
+        let params = FieldParams {
+            kernel: "spheroidal".into(),
+            order: kernel.order(),
+            sill,
+            nugget,
+            ranges,
+            orientation,
+            sources: ParamSources {
+                sill: sill_nugget_sources.0,
+                nugget: sill_nugget_sources.1,
+                orientation: orientation_source,
+                ranges: range_source,
+            },
+            transform: options.transform,
+            top_cut: options.top_cut,
+            top_cut_samples,
+            neighbourhood: options.neighbourhood,
+            spacing,
+            intercepts: geometry,
+            samples: t.values.len(),
+            holes: holes.len(),
+        };
+        Ok(Field {
+            params,
+            transform,
+            ellipsoid,
+            kriging,
+            samples_unit,
+        })
+    }
+
+    /// The samples in range units.
+    pub fn samples_unit(&self) -> &[DVec3] {
+        &self.samples_unit
+    }
+
+    /// The (transformed) field at `points` (local coordinates); `None` if cancelled.
+    pub fn evaluate(
+        &self,
+        points: &[DVec3],
+        cancelled: &(dyn Fn() -> bool + Sync),
+    ) -> Option<Vec<f64>> {
+        let unit: Vec<DVec3> = points.iter().map(|p| self.ellipsoid.to_unit(*p)).collect();
+        self.kriging.evaluate(&unit, cancelled)
+    }
+
+    /// Kriging blocks solved so far.
+    pub fn blocks_solved(&self) -> usize {
+        self.kriging.blocks_solved()
+    }
+
+    /// Refinement levels for a finest major-axis step of `resolution` (input units).
+    pub fn levels_for(&self, resolution: Option<f64>) -> u32 {
+        match resolution {
+            None => infill::DEFAULT_LEVELS,
+            Some(r) => {
+                let coarse = infill::COARSE_STEP * self.ellipsoid.ranges[0];
+                let levels = (coarse / r).log2().ceil();
+                levels.clamp(0.0, f64::from(infill::MAX_LEVELS)) as u32
+            }
+        }
+    }
+}
+
+/// Values capped at `cut`, and how many were.
+fn top_cut(values: &[f64], cut: Option<f64>) -> (Vec<f64>, usize) {
+    match cut {
+        None => (values.to_vec(), 0),
+        Some(c) => (
+            values.iter().map(|&v| v.min(c)).collect(),
+            values.iter().filter(|&&v| v > c).count(),
+        ),
+    }
+}
+
+fn sill_and_nugget(
+    t: &Samples,
+    holes: &[Vec<u32>],
+    options: &ModelOptions,
+) -> (f64, f64, (Source, Source)) {
+    let (sill, nugget) = estimate::sill_and_nugget(t, holes);
+    let sill_used = options.sill.unwrap_or(sill);
+    let nugget_used = options
+        .nugget
+        .unwrap_or(nugget.min(estimate::MAX_NUGGET_SHARE * sill_used));
+    let src = |given: bool| {
+        if given {
+            Source::Given
+        } else {
+            Source::Variogram
+        }
+    };
+    (
+        sill_used,
+        nugget_used,
+        (src(options.sill.is_some()), src(options.nugget.is_some())),
+    )
+}
+
+/// The orientation and ranges: given, from the intercepts, or the fallback (flat, in-plane
+/// ranges of three hole spacings, the minor a quarter of that).
+fn shape(
+    options: &ModelOptions,
+    geometry: Option<&InterceptGeometry>,
+    spacing: Spacing,
+) -> (Orientation, [f64; 3], Source, Source) {
+    let (orientation, orientation_source) = match (options.orientation, geometry) {
+        (Some(o), _) => (o, Source::Given),
+        (None, Some(g)) => (g.orientation, Source::Intercepts),
+        (None, None) => (Orientation::FLAT, Source::Default),
+    };
+    if let Some(r) = options.ranges {
+        return (orientation, r, orientation_source, Source::Given);
+    }
+    let (lo, hi) = estimate::RANGE_HOLE_SPACINGS;
+    let bound = |r: f64| r.clamp(lo * spacing.hole, hi * spacing.hole);
+    let min_minor = estimate::MIN_MINOR_SAMPLES * spacing.sample;
+    match geometry {
+        Some(g) => {
+            let major = bound(g.spread[0]);
+            let semi = bound(g.spread[1]).min(major);
+            let minor = g.thickness.max(min_minor).min(semi);
+            (
+                orientation,
+                [major, semi, minor],
+                orientation_source,
+                Source::Intercepts,
+            )
+        }
+        None => {
+            let major = 3.0 * spacing.hole;
+            let minor = (major / 4.0).max(min_minor).min(major);
+            (
+                orientation,
+                [major, major, minor],
+                orientation_source,
+                Source::Default,
+            )
+        }
+    }
+}
+
+impl Field {
+    /// `true` when local point `p` is farther than the inside reach from every sample: on
+    /// the model's extent, where bodies are closed by the sentinels.
+    pub fn beyond_reach(&self, p: DVec3) -> bool {
+        let reach = infill::INSIDE_REACH * (1.0 + 1e-6);
+        !self.kriging.any_within(self.ellipsoid.to_unit(p), reach)
+    }
+}
