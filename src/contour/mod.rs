@@ -144,8 +144,15 @@ struct Extraction {
     method: Method,
     relax: usize,
     min_volume: Option<f64>,
+    /// The floor is the model's default (one finest infill cell), not the request's: it
+    /// never takes more than [`SPECK_SHARE`] of the shell's largest body.
+    default_floor: bool,
     frame: Frame,
 }
+
+/// A default floor is at most this share of the shell's largest body: on sparse drilling
+/// (kilometre ranges) one infill cell can outweigh every body there is.
+const SPECK_SHARE: f64 = 0.01;
 
 /// What a `min_volume` filter left out of one shell.
 #[derive(Debug, Clone, Copy, Default)]
@@ -194,7 +201,11 @@ fn shell(
             .map(|b| (b.positions.as_slice(), b.triangles.as_slice())),
     );
     let mut filtered = Filtered::default();
-    if let Some(min_volume) = how.min_volume {
+    if let Some(mut min_volume) = how.min_volume {
+        if how.default_floor {
+            let largest = shell.bodies.iter().map(|b| b.volume).fold(0.0, f64::max);
+            min_volume = min_volume.min(SPECK_SHARE * largest);
+        }
         shell.bodies.retain(|b| {
             let keep = b.volume >= min_volume;
             if !keep {
@@ -477,6 +488,7 @@ pub fn run(
         method,
         relax: request.relax,
         min_volume: request.min_volume,
+        default_floor: false,
         frame: Frame::new(request.anisotropy),
     };
     let samples = result_samples(&request.source);
@@ -495,6 +507,7 @@ pub fn run(
         && let Some((_, m)) = &prepared.model
     {
         how.min_volume = Some(model::finest_cell_volume(&m.infill));
+        how.default_floor = true;
     }
     let (shells, filtered) = prepared_shells(&prepared, &thresholds, &how, progress)?;
     // The report integrates grades: back from the model's transform, once the shells are cut.
