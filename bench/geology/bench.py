@@ -113,7 +113,8 @@ def run_one(layout: Path, tool: str, label: str, out: Path, wellmesh: str, wellm
         data = np.load(result)
         bodies = split_bodies(data["vertices"], data["faces"])
         rec["params"] = json.loads(str(data["params"]))
-    rec.update(score(truth, bodies, samples.positions[samples.known], mc_points))
+    rec.update(score(truth, bodies, samples.positions[samples.known], mc_points,
+                     assays=samples))
     return rec
 
 

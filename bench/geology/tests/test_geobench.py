@@ -18,9 +18,9 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
 import make_layouts  # noqa: E402
-from drillholes import Trajectory, read_tables  # noqa: E402
+from drillholes import Samples, Trajectory, read_tables  # noqa: E402
 from meshes import Body, RayParity, is_closed, read_glb, signed_volume, split_bodies  # noqa: E402
-from score import score, uniform_in_lenses  # noqa: E402
+from score import assays_at_holes, score, uniform_in_lenses  # noqa: E402
 from truth import Lens, Truth, ellipsoid_area, frame, icosphere, mesh_volume  # noqa: E402
 
 REPO = HERE.parent.parent.parent
@@ -181,6 +181,25 @@ def test_scaled_truth_scores_the_nested_volume_ratio():
     assert abs(out["iou_mc"] - out["iou"]) < 4 * out["iou_mc_se"] + 0.002
     assert out["volume_error_pct"] == pytest.approx(100 * (0.9 ** 3 - 1), abs=0.4)
     assert out["lens_bodies"] == [1] and out["stray_bodies"] == 0 and out["bodies"] == 1
+
+
+def test_figures_at_the_holes(tmp_path):
+    """Noise-free assays say exactly where the truth is at the holes (the ceiling is 1 with
+    no smoothing); the true ellipsoid as the model scores 1 there too, a shrunk one less;
+    noisy assays score below 1, better smoothed than raw."""
+    lay = make_layouts.write_layout(tmp_path, "lens", 2)
+    d = Path(lay["dir"])
+    t = Truth.load(d)
+    s = read_tables(d / "collars.csv", d / "surveys.csv", d / "assays.csv", t.variable)
+    noisy, window = assays_at_holes(t, s)
+    assert 0.5 < noisy < 0.95 and window > 1
+    exact = Samples(s.hole_ids, s.hole, s.positions, np.where(s.known, t.grade(s.positions),
+                                                                np.nan), s.depths)
+    assert assays_at_holes(t, exact) == (1.0, 1)
+    full = score(t, [ellipsoid_body(t, 1.0, level=6)], None, mc_points=10_000, assays=exact)
+    assert full["iou_at_holes"] > 0.98
+    shrunk = score(t, [ellipsoid_body(t, 0.8, level=6)], None, mc_points=10_000, assays=exact)
+    assert shrunk["iou_at_holes"] < full["iou_at_holes"] - 0.1
 
 
 def test_open_model_falls_back_to_monte_carlo_and_stray_bodies_count():
