@@ -142,7 +142,7 @@ pub struct Args {
     #[arg(long, value_name = "N", help_heading = MODEL)]
     pub nugget: Option<f64>,
 
-    /// Order of the spheroidal covariance: 3 (default), 5 or 7 (faster decay).
+    /// Order of the spheroidal covariance: 3, 5 or 7 (the default).
     #[arg(long, value_name = "K", help_heading = MODEL)]
     pub spheroidal_order: Option<u8>,
 

@@ -128,7 +128,7 @@ pub struct ProcessInputs {
     /// The nugget; default the down-hole variogram at lag zero, at most half the sill.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub nugget: Option<f64>,
-    /// Order of the spheroidal covariance: 3 (default), 5 or 7.
+    /// Order of the spheroidal covariance: 3, 5 or 7 (default).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spheroidal_order: Option<u8>,
     /// Transform before the fit: `none` (default), `log` or `normal-score`.
