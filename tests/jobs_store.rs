@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use wellmesh::jobs::{
     Dismissal, FailureKind, JobQuery, JobState, JobStore, JobStoreError, ListPosition,
-    PostgresStore, SqliteStore, StoredOutput,
+    OUTPUT_PART_BYTES, PostgresStore, SqliteStore, StoredOutput,
 };
 
 const LEASE_MS: i64 = 1_000;
@@ -85,6 +85,7 @@ store_suite!(
     the_retention_sweep_deletes_only_old_finished_jobs,
     storage_counts_inputs_and_outputs_per_job,
     concurrent_submits_never_pass_the_queue_limit,
+    a_large_output_is_read_back_a_part_at_a_time,
 );
 
 fn output(id: &str, bytes: &[u8]) -> StoredOutput {
@@ -641,4 +642,75 @@ async fn concurrent_submits_never_pass_the_queue_limit(store: Arc<dyn JobStore>)
     assert_eq!((accepted, refused), (10, 22));
     let counts = store.count_by_state().await.unwrap();
     assert_eq!(counts, vec![(JobState::Accepted, 10)]);
+}
+
+async fn a_large_output_is_read_back_a_part_at_a_time(store: Arc<dyn JobStore>) {
+    let job = store.submit(b"1", 3, None, 0).await.unwrap();
+    let claimed = store
+        .claim_next_job("w1", 0, LEASE_MS)
+        .await
+        .unwrap()
+        .unwrap();
+    // Two whole parts and a short third one; every byte differs from its neighbours.
+    let size = 2 * OUTPUT_PART_BYTES + 1_000;
+    let glb: Vec<u8> = (0..size).map(|i| (i * 7 % 251) as u8).collect();
+    let outputs = vec![output("glb", &glb), output("empty", b"")];
+    assert!(
+        store
+            .mark_succeeded(claimed.lease, &outputs, 10)
+            .await
+            .unwrap()
+    );
+
+    let info = store.output_info(job.id, "glb").await.unwrap().unwrap();
+    assert_eq!(info.size_bytes, size as i64);
+    assert_eq!(info.file_name, "out.glb");
+    // A read answers from its offset to the end of the part holding it, never more.
+    let part = OUTPUT_PART_BYTES as u64;
+    for (offset, expected) in [
+        (0, 0..OUTPUT_PART_BYTES),
+        (5, 5..OUTPUT_PART_BYTES),
+        (part - 1, OUTPUT_PART_BYTES - 1..OUTPUT_PART_BYTES),
+        (part, OUTPUT_PART_BYTES..2 * OUTPUT_PART_BYTES),
+        (2 * part + 999, size - 1..size),
+    ] {
+        let read = store
+            .output_part(job.id, "glb", offset)
+            .await
+            .unwrap()
+            .unwrap();
+        assert_eq!(read, glb[expected.clone()], "offset {offset}");
+    }
+    // Read part after part, the output comes back whole.
+    let mut streamed = Vec::new();
+    while streamed.len() < size {
+        let read = store
+            .output_part(job.id, "glb", streamed.len() as u64)
+            .await
+            .unwrap()
+            .unwrap();
+        assert!(!read.is_empty() && read.len() <= OUTPUT_PART_BYTES);
+        streamed.extend(read);
+    }
+    assert_eq!(streamed, glb);
+    assert_eq!(
+        store.output(job.id, "glb").await.unwrap().unwrap(),
+        outputs[0]
+    );
+    // At the end: empty; an empty output has no parts but exists; a missing one is None.
+    let end = store.output_part(job.id, "glb", size as u64).await.unwrap();
+    assert_eq!(end, Some(Vec::new()));
+    let empty = store.output_part(job.id, "empty", 0).await.unwrap();
+    assert_eq!(empty, Some(Vec::new()));
+    assert_eq!(
+        store.output(job.id, "empty").await.unwrap().unwrap(),
+        outputs[1]
+    );
+    assert!(store.output_part(job.id, "obj", 0).await.unwrap().is_none());
+    assert!(store.output_info(job.id, "obj").await.unwrap().is_none());
+    let usage = store.storage().await.unwrap();
+    assert_eq!(usage.output_bytes, size as i64);
+    // Dismissal deletes the parts with the output.
+    store.request_dismissal(job.id, 20).await.unwrap();
+    assert!(store.output_part(job.id, "glb", 0).await.unwrap().is_none());
 }

@@ -206,7 +206,12 @@ pub struct Lease {
     pub attempt: i64,
 }
 
-/// One output of a finished job, stored as a blob.
+/// Outputs are stored in parts of at most this many bytes (`job_output_parts`, keyed by
+/// the offset of their first byte) and read back a part at a time, so serving an output
+/// holds one part in memory per download, whatever the output's size.
+pub const OUTPUT_PART_BYTES: usize = 256 * 1024;
+
+/// One output of a finished job.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StoredOutput {
     /// `glb`, `summary`, `tileset`, `geojson`, `obj`, `vtu`.
@@ -386,6 +391,26 @@ pub trait JobStore: Send + Sync + 'static {
 
     async fn outputs(&self, id: Uuid) -> Result<Vec<OutputInfo>, JobStoreError>;
 
+    /// One output's name, media type and size, without its bytes.
+    async fn output_info(
+        &self,
+        id: Uuid,
+        output_id: &str,
+    ) -> Result<Option<OutputInfo>, JobStoreError>;
+
+    /// The bytes of an output from `offset` to the end of the stored part holding it: at
+    /// most [`OUTPUT_PART_BYTES`], read without loading the rest of the output. Empty at
+    /// or past the output's end; `None` when the output does not exist (or no longer
+    /// does: a download racing a dismissal ends there).
+    async fn output_part(
+        &self,
+        id: Uuid,
+        output_id: &str,
+        offset: u64,
+    ) -> Result<Option<Vec<u8>>, JobStoreError>;
+
+    /// A whole output in memory: for small ones (the summary); downloads read
+    /// [`JobStore::output_part`] instead.
     async fn output(
         &self,
         id: Uuid,
@@ -437,6 +462,45 @@ pub(crate) async fn decode_inputs(
             "unknown inputs encoding {other:?}"
         ))),
     }
+}
+
+/// An output's bytes cut into the parts it is stored as: `(offset of the first byte,
+/// bytes)`, every part [`OUTPUT_PART_BYTES`] long but the last; none for no bytes.
+pub(crate) fn output_parts(bytes: &[u8]) -> impl Iterator<Item = (i64, &[u8])> {
+    bytes
+        .chunks(OUTPUT_PART_BYTES)
+        .enumerate()
+        .map(|(i, part)| ((i * OUTPUT_PART_BYTES) as i64, part))
+}
+
+/// The bytes from `offset` of the stored part that starts at `start` (the last part
+/// starting at or before `offset`): empty when `offset` lies past its end, which is past
+/// the output's end.
+pub(crate) fn part_from(start: i64, mut part: Vec<u8>, offset: u64) -> Vec<u8> {
+    let skip = usize::try_from(offset.saturating_sub(start.max(0) as u64)).unwrap_or(usize::MAX);
+    if skip >= part.len() {
+        return Vec::new();
+    }
+    part.drain(..skip);
+    part
+}
+
+/// An output put back together from its parts in order; `None` when they do not add up
+/// to its size (a dismissal or the retention sweep deleted them meanwhile).
+pub(crate) fn whole_output(
+    info: OutputInfo,
+    parts: impl Iterator<Item = Vec<u8>>,
+) -> Option<StoredOutput> {
+    let mut bytes = Vec::with_capacity(usize::try_from(info.size_bytes).unwrap_or(0));
+    for part in parts {
+        bytes.extend_from_slice(&part);
+    }
+    (bytes.len() as i64 == info.size_bytes).then_some(StoredOutput {
+        id: info.id,
+        file_name: info.file_name,
+        media_type: info.media_type,
+        bytes,
+    })
 }
 
 /// `states` as the comma-separated list the stores' listing queries take.
