@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use wellmesh::jobs::{
     Dismissal, FailureKind, JobQuery, JobState, JobStore, JobStoreError, ListPosition,
-    OUTPUT_PART_BYTES, PostgresStore, SqliteStore, StoredOutput,
+    OUTPUT_PART_BYTES, PostgresStore, SqliteStore, StoredOutput, compress_json_inputs,
 };
 
 const LEASE_MS: i64 = 1_000;
@@ -86,6 +86,7 @@ store_suite!(
     storage_counts_inputs_and_outputs_per_job,
     concurrent_submits_never_pass_the_queue_limit,
     a_large_output_is_read_back_a_part_at_a_time,
+    inputs_compressed_by_the_service_are_read_back_as_their_json,
 );
 
 fn output(id: &str, bytes: &[u8]) -> StoredOutput {
@@ -713,4 +714,38 @@ async fn a_large_output_is_read_back_a_part_at_a_time(store: Arc<dyn JobStore>) 
     // Dismissal deletes the parts with the output.
     store.request_dismissal(job.id, 20).await.unwrap();
     assert!(store.output_part(job.id, "glb", 0).await.unwrap().is_none());
+}
+
+async fn inputs_compressed_by_the_service_are_read_back_as_their_json(store: Arc<dyn JobStore>) {
+    // What the API submits: the parsed request serialized straight into the compressor.
+    let csv: String = (0..20_000)
+        .map(|i| format!("w{},{i}.5,{}.25,{}.75,{}\n", i % 7, i / 3, i % 11, i % 2))
+        .collect();
+    let inputs = serde_json::json!({"samples_csv": csv, "thresholds": [0.5, 1.0]});
+    let compressed = compress_json_inputs(&inputs).unwrap();
+    let json = serde_json::to_vec(&inputs).unwrap();
+    assert!(
+        compressed.len() * 3 < json.len(),
+        "{} of {}",
+        compressed.len(),
+        json.len()
+    );
+
+    let job = store
+        .submit_compressed(&compressed, Some("key-a"), 3, Some(10), 5)
+        .await
+        .unwrap();
+
+    assert_eq!(job.owner.as_deref(), Some("key-a"));
+    assert_eq!(store.inputs(job.id).await.unwrap().unwrap(), json);
+    let claimed = store
+        .claim_next_job("w1", 6, LEASE_MS)
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(claimed.inputs, json);
+    assert_eq!(
+        store.storage().await.unwrap().input_bytes,
+        compressed.len() as i64
+    );
 }

@@ -319,6 +319,22 @@ pub trait JobStore: Send + Sync + 'static {
         max_attempts: i64,
         max_queued: Option<i64>,
         now_ms: i64,
+    ) -> Result<JobRecord, JobStoreError> {
+        let compressed = encode_inputs(inputs).await?;
+        self.submit_compressed(&compressed, owner, max_attempts, max_queued, now_ms)
+            .await
+    }
+
+    /// [`JobStore::submit_owned`] for inputs already compressed by
+    /// [`compress_json_inputs`]: the service never holds a large job's inputs
+    /// uncompressed beside its parsed request.
+    async fn submit_compressed(
+        &self,
+        compressed_inputs: &[u8],
+        owner: Option<&str>,
+        max_attempts: i64,
+        max_queued: Option<i64>,
+        now_ms: i64,
     ) -> Result<JobRecord, JobStoreError>;
 
     async fn get(&self, id: Uuid) -> Result<Option<JobRecord>, JobStoreError>;
@@ -440,6 +456,15 @@ pub(crate) async fn encode_inputs(inputs: &[u8]) -> Result<Vec<u8>, JobStoreErro
     .await
     .map_err(|e| JobStoreError::Corrupt(format!("compressing inputs: {e}")))?
     .map_err(|e| JobStoreError::Corrupt(format!("compressing inputs: {e}")))
+}
+
+/// `inputs` as JSON, compressed as stored (gzip), written straight into the compressor so
+/// the uncompressed JSON is never held whole. CPU work for a blocking thread.
+pub fn compress_json_inputs(inputs: &impl Serialize) -> std::io::Result<Vec<u8>> {
+    let encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    let mut writer = std::io::BufWriter::with_capacity(64 * 1024, encoder);
+    serde_json::to_writer(&mut writer, inputs)?;
+    writer.into_inner().map_err(|e| e.into_error())?.finish()
 }
 
 /// The submitted bytes of inputs stored with `encoding`.

@@ -15,7 +15,7 @@ use uuid::Uuid;
 use super::{
     ClaimedJob, Dismissal, FailureKind, INPUTS_ENCODING, JobQuery, JobRecord, JobState, JobStore,
     JobStoreError, Lease, OutputInfo, StateCounts, StorageUse, StoredOutput, decode_inputs,
-    encode_inputs, output_parts, part_from, state_list, whole_output,
+    output_parts, part_from, state_list, whole_output,
 };
 
 /// The schema's versioned migrations (`migrations/postgres/`), embedded in the binary.
@@ -116,15 +116,14 @@ fn output_info(row: &PgRow) -> Result<OutputInfo, JobStoreError> {
 
 #[async_trait]
 impl JobStore for PostgresStore {
-    async fn submit_owned(
+    async fn submit_compressed(
         &self,
-        inputs: &[u8],
+        compressed_inputs: &[u8],
         owner: Option<&str>,
         max_attempts: i64,
         max_queued: Option<i64>,
         now_ms: i64,
     ) -> Result<JobRecord, JobStoreError> {
-        let stored = encode_inputs(inputs).await?;
         let id = Uuid::new_v4();
         let mut tx = self.pool.begin().await?;
         if max_queued.is_some() {
@@ -143,7 +142,7 @@ impl JobStore for PostgresStore {
                 OR (SELECT count(*) FROM jobs WHERE state = 'accepted') < $5",
         )
         .bind(id.to_string())
-        .bind(&stored)
+        .bind(compressed_inputs)
         .bind(max_attempts)
         .bind(now_ms)
         .bind(max_queued)

@@ -17,7 +17,7 @@ use uuid::Uuid;
 use super::{
     ClaimedJob, Dismissal, FailureKind, INPUTS_ENCODING, JobQuery, JobRecord, JobState, JobStore,
     JobStoreError, Lease, OutputInfo, StateCounts, StorageUse, StoredOutput, decode_inputs,
-    encode_inputs, output_parts, part_from, state_list, whole_output,
+    output_parts, part_from, state_list, whole_output,
 };
 
 /// The schema's versioned migrations (`migrations/sqlite/`), embedded in the binary.
@@ -101,15 +101,14 @@ fn output_info(row: &SqliteRow) -> Result<OutputInfo, JobStoreError> {
 
 #[async_trait]
 impl JobStore for SqliteStore {
-    async fn submit_owned(
+    async fn submit_compressed(
         &self,
-        inputs: &[u8],
+        compressed_inputs: &[u8],
         owner: Option<&str>,
         max_attempts: i64,
         max_queued: Option<i64>,
         now_ms: i64,
     ) -> Result<JobRecord, JobStoreError> {
-        let stored = encode_inputs(inputs).await?;
         let id = Uuid::new_v4();
         // One statement counts and inserts: SQLite runs it under its write lock.
         let inserted = sqlx::query(
@@ -119,7 +118,7 @@ impl JobStore for SqliteStore {
              WHERE ?5 IS NULL OR (SELECT count(*) FROM jobs WHERE state = 'accepted') < ?5",
         )
         .bind(id.to_string())
-        .bind(&stored)
+        .bind(compressed_inputs)
         .bind(max_attempts)
         .bind(now_ms)
         .bind(max_queued)
