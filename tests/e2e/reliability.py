@@ -35,6 +35,9 @@ import urllib.request
 import uuid
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+if __name__ == "__main__" and len(sys.argv) > 1 and sys.argv[1] in ("-h", "--help"):
+    print(__doc__)
+    sys.exit(0)
 BIN = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "target/release/wellmesh")
 PG_URL = os.environ.get("WELLMESH_TEST_DATABASE_URL")
 WORK = tempfile.mkdtemp(prefix="wellmesh-reliability-")
