@@ -16,7 +16,7 @@ use hyper_util::rt::TokioExecutor;
 use serde_json::{Value, json};
 use tokio::sync::oneshot;
 use wellmesh::api::{self, ApiConfig, ApiKey};
-use wellmesh::jobs::{JobFailure, Pipeline, StoredOutput};
+use wellmesh::jobs::{JobFailure, OUTPUT_PART_BYTES, Pipeline, StoredOutput};
 use wellmesh::process::ProcessInputs;
 use wellmesh::progress::{Progress, Stage};
 use wellmesh::startup::{Application, Settings};
@@ -54,6 +54,11 @@ impl Pipeline for TestPipeline {
         if inputs.variable.as_deref() == Some("panic") {
             panic!("invariant broken at /srv/secret/tet.rs:12");
         }
+        let glb = if inputs.variable.as_deref() == Some("big") {
+            big_glb()
+        } else {
+            b"glTF\x02\0\0\0".to_vec()
+        };
         let summary =
             json!({"thresholds": inputs.thresholds.values(), "points": inputs.point_count()});
         Ok(vec![
@@ -67,10 +72,18 @@ impl Pipeline for TestPipeline {
                 id: "glb".into(),
                 file_name: "bodies.glb".into(),
                 media_type: "model/gltf-binary".into(),
-                bytes: b"glTF\x02\0\0\0".to_vec(),
+                bytes: glb,
             },
         ])
     }
+}
+
+/// The GLB of a job whose `variable` is "big": several of the parts outputs are stored in,
+/// the last one short, every byte different from its neighbours.
+fn big_glb() -> Vec<u8> {
+    (0..3 * OUTPUT_PART_BYTES + 12_345)
+        .map(|i| (i * 11 % 241) as u8)
+        .collect()
 }
 
 struct TestApp {
@@ -313,6 +326,83 @@ async fn a_small_job_runs_synchronously_and_returns_its_results() {
     assert_eq!(part.status, StatusCode::PARTIAL_CONTENT);
     assert_eq!(part.headers[header::CONTENT_RANGE], "bytes 4-7/8");
     assert_eq!(part.body, b"\x02\0\0\0");
+}
+
+#[tokio::test]
+async fn a_large_output_is_streamed_whole_and_by_ranges_across_its_parts() {
+    let app = spawn_app(|_| {}, 1).await;
+    let mut request = small_request();
+    request["inputs"]["variable"] = json!("big");
+    let answer = app.execute(request, false).await;
+    assert_eq!(answer.status, StatusCode::OK);
+    let href = answer.json()["glb"]["href"].as_str().unwrap().to_string();
+    let glb = big_glb();
+    let total = glb.len();
+
+    let whole = app.get(&href).await;
+    assert_eq!(whole.status, StatusCode::OK);
+    assert_eq!(
+        whole.headers[header::CONTENT_LENGTH],
+        total.to_string().as_str()
+    );
+    assert_eq!(whole.headers[header::CONTENT_TYPE], "model/gltf-binary");
+    assert!(
+        whole.body == glb,
+        "the streamed GLB differs from the stored one"
+    );
+
+    let part = OUTPUT_PART_BYTES;
+    for (range, first, last) in [
+        // across the first part boundary, and across two boundaries
+        (
+            format!("bytes={}-{}", part - 10, part + 9),
+            part - 10,
+            part + 9,
+        ),
+        (format!("bytes=100-{}", 2 * part + 5), 100, 2 * part + 5),
+        // inside the short last part, open-ended, and a suffix
+        (format!("bytes={}-", 3 * part + 1), 3 * part + 1, total - 1),
+        ("bytes=-5000".to_string(), total - 5000, total - 1),
+        // past the end: cut at the last byte
+        (
+            format!("bytes={}-{}", total - 3, total + 100),
+            total - 3,
+            total - 1,
+        ),
+    ] {
+        let answer = app
+            .send(
+                Request::get(&href)
+                    .header(header::RANGE, &range)
+                    .body(Body::empty())
+                    .unwrap(),
+            )
+            .await;
+        assert_eq!(answer.status, StatusCode::PARTIAL_CONTENT, "{range}");
+        assert_eq!(
+            answer.headers[header::CONTENT_RANGE],
+            format!("bytes {first}-{last}/{total}").as_str(),
+            "{range}"
+        );
+        assert_eq!(
+            answer.headers[header::CONTENT_LENGTH],
+            (last + 1 - first).to_string().as_str()
+        );
+        assert!(answer.body == glb[first..=last], "{range}: wrong bytes");
+    }
+    let beyond = app
+        .send(
+            Request::get(&href)
+                .header(header::RANGE, format!("bytes={total}-"))
+                .body(Body::empty())
+                .unwrap(),
+        )
+        .await;
+    assert_eq!(beyond.status, StatusCode::RANGE_NOT_SATISFIABLE);
+    assert_eq!(
+        beyond.headers[header::CONTENT_RANGE],
+        format!("bytes */{total}").as_str()
+    );
 }
 
 #[tokio::test]

@@ -11,7 +11,7 @@ use std::str::FromStr;
 use sqlx::postgres::{PgConnectOptions, PgPoolOptions};
 use sqlx::sqlite::{SqliteConnectOptions, SqlitePoolOptions};
 use uuid::Uuid;
-use wellmesh::jobs::{JobState, JobStore, PostgresStore, SqliteStore};
+use wellmesh::jobs::{JobState, JobStore, OUTPUT_PART_BYTES, PostgresStore, SqliteStore};
 
 /// The schema as the service created it, with `CREATE TABLE IF NOT EXISTS` at every
 /// start, before its changes were kept as migrations (SQLite spelling).
@@ -55,9 +55,20 @@ const OLD_JOB: &str = "INSERT INTO jobs (id, state, message, progress, inputs, a
 const OLD_OUTPUT: &str = "INSERT INTO job_outputs (job_id, output_id, file_name, media_type, bytes)
      VALUES ('4a0f5e3c-1b2d-4e6f-8a9b-0c1d2e3f4a5b', 'summary', 'summary.json',
         'application/json', $1)";
+const OLD_GLB: &str = "INSERT INTO job_outputs (job_id, output_id, file_name, media_type, bytes)
+     VALUES ('4a0f5e3c-1b2d-4e6f-8a9b-0c1d2e3f4a5b', 'glb', 'bodies.glb',
+        'model/gltf-binary', $1)";
 const OLD_JOB_ID: &str = "4a0f5e3c-1b2d-4e6f-8a9b-0c1d2e3f4a5b";
 const OLD_INPUTS: &[u8] = br#"{"thresholds":[0.5],"samples_csv":"well,x,y,z,value\n"}"#;
 const OLD_SUMMARY: &[u8] = br#"{"shells":[]}"#;
+
+/// An output the old release stored as one blob, longer than two of the parts outputs
+/// are stored in since migration 0004.
+fn old_glb() -> Vec<u8> {
+    (0..2 * OUTPUT_PART_BYTES + 777)
+        .map(|i| (i * 13 % 253) as u8)
+        .collect()
+}
 
 /// The versions of the migrations shipped for a backend, from their file names.
 fn shipped_versions(backend: &str) -> Vec<i64> {
@@ -108,6 +119,18 @@ async fn assert_old_job_kept(store: &dyn JobStore) {
     assert_eq!(inputs, OLD_INPUTS);
     let summary = store.output(id, "summary").await.unwrap().unwrap();
     assert_eq!(summary.bytes, OLD_SUMMARY);
+    // The old blob was cut into parts: whole, part by part, and its size kept.
+    let glb = old_glb();
+    assert_eq!(store.output(id, "glb").await.unwrap().unwrap().bytes, glb);
+    let info = store.output_info(id, "glb").await.unwrap().unwrap();
+    assert_eq!(info.size_bytes, glb.len() as i64);
+    let offset = OUTPUT_PART_BYTES + 3;
+    let part = store
+        .output_part(id, "glb", offset as u64)
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(part, glb[offset..2 * OUTPUT_PART_BYTES]);
 }
 
 #[tokio::test]
@@ -136,7 +159,12 @@ async fn an_unversioned_sqlite_database_is_adopted_with_its_jobs() {
     for statement in UNVERSIONED_SQLITE {
         sqlx::query(statement).execute(&pool).await.unwrap();
     }
-    for (statement, bytes) in [(OLD_JOB, OLD_INPUTS), (OLD_OUTPUT, OLD_SUMMARY)] {
+    let glb = old_glb();
+    for (statement, bytes) in [
+        (OLD_JOB, OLD_INPUTS),
+        (OLD_OUTPUT, OLD_SUMMARY),
+        (OLD_GLB, glb.as_slice()),
+    ] {
         sqlx::query(statement)
             .bind(bytes)
             .execute(&pool)
@@ -208,7 +236,12 @@ async fn postgres_unversioned(url: &str, schema: &str) {
     for statement in UNVERSIONED_POSTGRES {
         sqlx::query(statement).execute(&pool).await.unwrap();
     }
-    for (statement, bytes) in [(OLD_JOB, OLD_INPUTS), (OLD_OUTPUT, OLD_SUMMARY)] {
+    let glb = old_glb();
+    for (statement, bytes) in [
+        (OLD_JOB, OLD_INPUTS),
+        (OLD_OUTPUT, OLD_SUMMARY),
+        (OLD_GLB, glb.as_slice()),
+    ] {
         sqlx::query(statement)
             .bind(bytes)
             .execute(&pool)

@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use wellmesh::jobs::{
     Dismissal, FailureKind, JobQuery, JobState, JobStore, JobStoreError, ListPosition,
-    PostgresStore, SqliteStore, StoredOutput,
+    OUTPUT_PART_BYTES, PostgresStore, SqliteStore, StoredOutput, compress_json_inputs,
 };
 
 const LEASE_MS: i64 = 1_000;
@@ -85,6 +85,8 @@ store_suite!(
     the_retention_sweep_deletes_only_old_finished_jobs,
     storage_counts_inputs_and_outputs_per_job,
     concurrent_submits_never_pass_the_queue_limit,
+    a_large_output_is_read_back_a_part_at_a_time,
+    inputs_compressed_by_the_service_are_read_back_as_their_json,
 );
 
 fn output(id: &str, bytes: &[u8]) -> StoredOutput {
@@ -641,4 +643,109 @@ async fn concurrent_submits_never_pass_the_queue_limit(store: Arc<dyn JobStore>)
     assert_eq!((accepted, refused), (10, 22));
     let counts = store.count_by_state().await.unwrap();
     assert_eq!(counts, vec![(JobState::Accepted, 10)]);
+}
+
+async fn a_large_output_is_read_back_a_part_at_a_time(store: Arc<dyn JobStore>) {
+    let job = store.submit(b"1", 3, None, 0).await.unwrap();
+    let claimed = store
+        .claim_next_job("w1", 0, LEASE_MS)
+        .await
+        .unwrap()
+        .unwrap();
+    // Two whole parts and a short third one; every byte differs from its neighbours.
+    let size = 2 * OUTPUT_PART_BYTES + 1_000;
+    let glb: Vec<u8> = (0..size).map(|i| (i * 7 % 251) as u8).collect();
+    let outputs = vec![output("glb", &glb), output("empty", b"")];
+    assert!(
+        store
+            .mark_succeeded(claimed.lease, &outputs, 10)
+            .await
+            .unwrap()
+    );
+
+    let info = store.output_info(job.id, "glb").await.unwrap().unwrap();
+    assert_eq!(info.size_bytes, size as i64);
+    assert_eq!(info.file_name, "out.glb");
+    // A read answers from its offset to the end of the part holding it, never more.
+    let part = OUTPUT_PART_BYTES as u64;
+    for (offset, expected) in [
+        (0, 0..OUTPUT_PART_BYTES),
+        (5, 5..OUTPUT_PART_BYTES),
+        (part - 1, OUTPUT_PART_BYTES - 1..OUTPUT_PART_BYTES),
+        (part, OUTPUT_PART_BYTES..2 * OUTPUT_PART_BYTES),
+        (2 * part + 999, size - 1..size),
+    ] {
+        let read = store
+            .output_part(job.id, "glb", offset)
+            .await
+            .unwrap()
+            .unwrap();
+        assert_eq!(read, glb[expected.clone()], "offset {offset}");
+    }
+    // Read part after part, the output comes back whole.
+    let mut streamed = Vec::new();
+    while streamed.len() < size {
+        let read = store
+            .output_part(job.id, "glb", streamed.len() as u64)
+            .await
+            .unwrap()
+            .unwrap();
+        assert!(!read.is_empty() && read.len() <= OUTPUT_PART_BYTES);
+        streamed.extend(read);
+    }
+    assert_eq!(streamed, glb);
+    assert_eq!(
+        store.output(job.id, "glb").await.unwrap().unwrap(),
+        outputs[0]
+    );
+    // At the end: empty; an empty output has no parts but exists; a missing one is None.
+    let end = store.output_part(job.id, "glb", size as u64).await.unwrap();
+    assert_eq!(end, Some(Vec::new()));
+    let empty = store.output_part(job.id, "empty", 0).await.unwrap();
+    assert_eq!(empty, Some(Vec::new()));
+    assert_eq!(
+        store.output(job.id, "empty").await.unwrap().unwrap(),
+        outputs[1]
+    );
+    assert!(store.output_part(job.id, "obj", 0).await.unwrap().is_none());
+    assert!(store.output_info(job.id, "obj").await.unwrap().is_none());
+    let usage = store.storage().await.unwrap();
+    assert_eq!(usage.output_bytes, size as i64);
+    // Dismissal deletes the parts with the output.
+    store.request_dismissal(job.id, 20).await.unwrap();
+    assert!(store.output_part(job.id, "glb", 0).await.unwrap().is_none());
+}
+
+async fn inputs_compressed_by_the_service_are_read_back_as_their_json(store: Arc<dyn JobStore>) {
+    // What the API submits: the parsed request serialized straight into the compressor.
+    let csv: String = (0..20_000)
+        .map(|i| format!("w{},{i}.5,{}.25,{}.75,{}\n", i % 7, i / 3, i % 11, i % 2))
+        .collect();
+    let inputs = serde_json::json!({"samples_csv": csv, "thresholds": [0.5, 1.0]});
+    let compressed = compress_json_inputs(&inputs).unwrap();
+    let json = serde_json::to_vec(&inputs).unwrap();
+    assert!(
+        compressed.len() * 3 < json.len(),
+        "{} of {}",
+        compressed.len(),
+        json.len()
+    );
+
+    let job = store
+        .submit_compressed(&compressed, Some("key-a"), 3, Some(10), 5)
+        .await
+        .unwrap();
+
+    assert_eq!(job.owner.as_deref(), Some("key-a"));
+    assert_eq!(store.inputs(job.id).await.unwrap().unwrap(), json);
+    let claimed = store
+        .claim_next_job("w1", 6, LEASE_MS)
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(claimed.inputs, json);
+    assert_eq!(
+        store.storage().await.unwrap().input_bytes,
+        compressed.len() as i64
+    );
 }

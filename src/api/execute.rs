@@ -20,7 +20,7 @@ use super::auth::Principal;
 use super::documents::{BaseUrl, PROCESS_ID, StatusInfo, job_href};
 use super::jobs::results_for;
 use super::problem::Problem;
-use crate::jobs::{JobState, now_ms};
+use crate::jobs::{JobState, compress_json_inputs, now_ms};
 use crate::process::ProcessInputs;
 
 /// The OGC execute request body.
@@ -166,7 +166,7 @@ pub async fn execute(
             }
         })?;
         // A large body is parsed on a blocking thread, not on the request threads.
-        tokio::task::spawn_blocking(move || inputs_from_json(&body))
+        tokio::task::spawn_blocking(move || inputs_from_json(body))
             .await
             .map_err(|e| {
                 tracing::error!(error = %e, "parsing the body ended abnormally");
@@ -182,13 +182,22 @@ pub async fn execute(
     inputs
         .validate(state.config.max_points)
         .map_err(|e| Problem::invalid_input(&e.field, e.to_string()))?;
-    let stored = serde_json::to_vec(&inputs).map_err(|e| {
-        tracing::error!(error = %e, "could not serialize inputs");
-        Problem::internal()
-    })?;
+    let points = inputs.point_count();
+    // Serialized straight into the compressor on a blocking thread, which drops the
+    // parsed inputs: a large upload is never held parsed, serialized and compressed at once.
+    let stored = tokio::task::spawn_blocking(move || compress_json_inputs(&inputs))
+        .await
+        .map_err(|e| {
+            tracing::error!(error = %e, "compressing the inputs ended abnormally");
+            Problem::internal()
+        })?
+        .map_err(|e| {
+            tracing::error!(error = %e, "could not serialize inputs");
+            Problem::internal()
+        })?;
     let job = state
         .store
-        .submit_owned(
+        .submit_compressed(
             &stored,
             principal.owner(),
             state.config.max_attempts,
@@ -196,14 +205,15 @@ pub async fn execute(
             now_ms(),
         )
         .await?;
+    drop(stored);
     state.wake.notify_one();
-    tracing::info!(job_id = %job.id, points = inputs.point_count(), "job queued");
+    tracing::info!(job_id = %job.id, points, "job queued");
     let prefers_async = headers
         .get_all("prefer")
         .iter()
         .filter_map(|v| v.to_str().ok())
         .any(|v| v.to_ascii_lowercase().contains("respond-async"));
-    if prefers_async || inputs.point_count() > state.config.sync_max_points {
+    if prefers_async || points > state.config.sync_max_points {
         return Ok(accepted(&job, prefers_async, &base));
     }
     // Synchronous: wait for a worker (here or on another node) to finish the job.
@@ -296,9 +306,11 @@ fn accepted(job: &crate::jobs::JobRecord, preference_applied: bool, base: &str) 
 }
 
 /// Parses an execute request, unwrapping OGC qualified values (`{"value": ...}`).
-fn inputs_from_json(body: &[u8]) -> Result<ProcessInputs, Problem> {
-    let mut document: Value = serde_json::from_slice(body)
+fn inputs_from_json(body: impl AsRef<[u8]>) -> Result<ProcessInputs, Problem> {
+    let mut document: Value = serde_json::from_slice(body.as_ref())
         .map_err(|e| Problem::bad_request(format!("the body is not valid JSON: {e}")))?;
+    // The body's bytes are not needed once parsed: a large upload is freed here.
+    drop(body);
     let Some(object) = document.as_object_mut() else {
         return Err(Problem::bad_request(
             "the body must be a JSON object {\"inputs\": {...}}",
@@ -313,9 +325,12 @@ fn inputs_from_json(body: &[u8]) -> Result<ProcessInputs, Problem> {
     if let Some(inputs) = inputs.as_object_mut() {
         unwrap_qualified_values(inputs);
     }
-    let request: ExecuteRequest = serde_path_to_error::deserialize(&document).map_err(|e| {
+    // Deserialized from the document by value, so the CSV texts move into the request
+    // rather than being copied; the one value an error may quote is kept aside.
+    let thresholds = inputs.get("thresholds").cloned();
+    let request: ExecuteRequest = serde_path_to_error::deserialize(document).map_err(|e| {
         let field = field_at_fault(&e);
-        let sent = document.get("inputs").and_then(|inputs| inputs.get(&field));
+        let sent = thresholds.as_ref().filter(|_| field == "thresholds");
         let reason = plain_reason(&e.inner().to_string(), sent);
         Problem::invalid_input(&field, format!("{field}: {reason}"))
     })?;

@@ -4,10 +4,15 @@
 //! Invariant: results are served only for successful jobs; anything else answers a
 //! JSON problem (`result-not-ready` while queued or running).
 
+use std::ops::Range;
+use std::sync::Arc;
+
+use axum::body::{Body, Bytes};
 use axum::extract::{Path, RawQuery, State};
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use axum::{Extension, Json};
+use futures_util::Stream;
 use uuid::Uuid;
 
 use super::AppState;
@@ -18,7 +23,9 @@ use super::documents::{
     process_description, process_summary, results_document,
 };
 use super::problem::Problem;
-use crate::jobs::{Dismissal, JobQuery, JobRecord, JobState, ListPosition, now_ms};
+use crate::jobs::{
+    Dismissal, JobQuery, JobRecord, JobState, JobStore, JobStoreError, ListPosition, now_ms,
+};
 
 /// Landing page with links to the API description, conformance and processes.
 #[utoipa::path(get, path = "/", tag = "Capabilities",
@@ -395,26 +402,17 @@ pub async fn get_output(
     }
     let output = state
         .store
-        .output(job.id, &output_id)
+        .output_info(job.id, &output_id)
         .await?
         .ok_or_else(|| Problem::not_found(format!("job {job_id} has no output {output_id:?}")))?;
-    let total = output.bytes.len();
+    let total = u64::try_from(output.size_bytes).unwrap_or(0);
     let range = request_headers
         .get(header::RANGE)
         .and_then(|v| v.to_str().ok())
         .map(|v| byte_range(v, total));
-    let mut response = match range {
-        None | Some(ByteRange::Ignored) => output.bytes.into_response(),
-        Some(ByteRange::Part(start, end)) => {
-            let mut part = output.bytes;
-            part.truncate(end + 1);
-            part.drain(..start);
-            let mut response = (StatusCode::PARTIAL_CONTENT, part).into_response();
-            if let Ok(value) = HeaderValue::from_str(&format!("bytes {start}-{end}/{total}")) {
-                response.headers_mut().insert(header::CONTENT_RANGE, value);
-            }
-            response
-        }
+    let (status, start, end) = match range {
+        None | Some(ByteRange::Ignored) => (StatusCode::OK, 0, total),
+        Some(ByteRange::Part(first, last)) => (StatusCode::PARTIAL_CONTENT, first, last + 1),
         Some(ByteRange::Unsatisfiable) => {
             let mut response = Problem::new(
                 StatusCode::RANGE_NOT_SATISFIABLE,
@@ -428,7 +426,20 @@ pub async fn get_output(
             return Ok(response);
         }
     };
+    let body = Body::from_stream(output_stream(
+        state.store.clone(),
+        job.id,
+        output.id.clone(),
+        start..end,
+    ));
+    let mut response = (status, body).into_response();
     let headers = response.headers_mut();
+    headers.insert(header::CONTENT_LENGTH, HeaderValue::from(end - start));
+    if status == StatusCode::PARTIAL_CONTENT
+        && let Ok(value) = HeaderValue::from_str(&format!("bytes {start}-{}/{total}", end - 1))
+    {
+        headers.insert(header::CONTENT_RANGE, value);
+    }
     headers.insert(header::ACCEPT_RANGES, HeaderValue::from_static("bytes"));
     if let Ok(media_type) = HeaderValue::from_str(&output.media_type) {
         headers.insert(header::CONTENT_TYPE, media_type);
@@ -441,11 +452,45 @@ pub async fn get_output(
     Ok(response)
 }
 
+/// The bytes `range` of a stored output, read from the store one part at a time as the
+/// client takes them: a download holds one part (at most `OUTPUT_PART_BYTES`) in memory,
+/// whatever the output's size. An output deleted meanwhile (dismissed, swept) ends the
+/// stream with an error, so the client sees a cut body, never a wrong one.
+fn output_stream(
+    store: Arc<dyn JobStore>,
+    job_id: Uuid,
+    output_id: String,
+    range: Range<u64>,
+) -> impl Stream<Item = Result<Bytes, JobStoreError>> + Send + 'static {
+    futures_util::stream::try_unfold(range.start, move |offset| {
+        let store = store.clone();
+        let output_id = output_id.clone();
+        let end = range.end;
+        async move {
+            if offset >= end {
+                return Ok(None);
+            }
+            let mut part = store
+                .output_part(job_id, &output_id, offset)
+                .await?
+                .filter(|part| !part.is_empty())
+                .ok_or_else(|| {
+                    JobStoreError::Corrupt(format!(
+                        "output {output_id} of job {job_id} ended at byte {offset} of {end}"
+                    ))
+                })?;
+            part.truncate(usize::try_from(end - offset).unwrap_or(usize::MAX));
+            let next = offset + part.len() as u64;
+            Ok(Some((Bytes::from(part), next)))
+        }
+    })
+}
+
 /// What a `Range` header asks of an output of `total` bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum ByteRange {
     /// Bytes `start..=end`.
-    Part(usize, usize),
+    Part(u64, u64),
     /// Starts past the end: 416.
     Unsatisfiable,
     /// Not one byte range (several ranges, other units, malformed): the whole output.
@@ -454,7 +499,7 @@ enum ByteRange {
 
 /// Reads `bytes=a-b`, `bytes=a-` and `bytes=-n` (RFC 9110); anything else is ignored,
 /// which the RFC allows.
-fn byte_range(value: &str, total: usize) -> ByteRange {
+fn byte_range(value: &str, total: u64) -> ByteRange {
     let Some(spec) = value.trim().strip_prefix("bytes=") else {
         return ByteRange::Ignored;
     };
@@ -465,7 +510,7 @@ fn byte_range(value: &str, total: usize) -> ByteRange {
         return ByteRange::Ignored;
     };
     let (first, last) = (first.trim(), last.trim());
-    let parse = |n: &str| n.parse::<usize>().ok();
+    let parse = |n: &str| n.parse::<u64>().ok();
     let (start, end) = match (first.is_empty(), last.is_empty()) {
         (true, false) => match parse(last) {
             Some(0) => return ByteRange::Unsatisfiable,

@@ -206,7 +206,12 @@ pub struct Lease {
     pub attempt: i64,
 }
 
-/// One output of a finished job, stored as a blob.
+/// Outputs are stored in parts of at most this many bytes (`job_output_parts`, keyed by
+/// the offset of their first byte) and read back a part at a time, so serving an output
+/// holds one part in memory per download, whatever the output's size.
+pub const OUTPUT_PART_BYTES: usize = 256 * 1024;
+
+/// One output of a finished job.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StoredOutput {
     /// `glb`, `summary`, `tileset`, `geojson`, `obj`, `vtu`.
@@ -314,6 +319,22 @@ pub trait JobStore: Send + Sync + 'static {
         max_attempts: i64,
         max_queued: Option<i64>,
         now_ms: i64,
+    ) -> Result<JobRecord, JobStoreError> {
+        let compressed = encode_inputs(inputs).await?;
+        self.submit_compressed(&compressed, owner, max_attempts, max_queued, now_ms)
+            .await
+    }
+
+    /// [`JobStore::submit_owned`] for inputs already compressed by
+    /// [`compress_json_inputs`]: the service never holds a large job's inputs
+    /// uncompressed beside its parsed request.
+    async fn submit_compressed(
+        &self,
+        compressed_inputs: &[u8],
+        owner: Option<&str>,
+        max_attempts: i64,
+        max_queued: Option<i64>,
+        now_ms: i64,
     ) -> Result<JobRecord, JobStoreError>;
 
     async fn get(&self, id: Uuid) -> Result<Option<JobRecord>, JobStoreError>;
@@ -386,6 +407,26 @@ pub trait JobStore: Send + Sync + 'static {
 
     async fn outputs(&self, id: Uuid) -> Result<Vec<OutputInfo>, JobStoreError>;
 
+    /// One output's name, media type and size, without its bytes.
+    async fn output_info(
+        &self,
+        id: Uuid,
+        output_id: &str,
+    ) -> Result<Option<OutputInfo>, JobStoreError>;
+
+    /// The bytes of an output from `offset` to the end of the stored part holding it: at
+    /// most [`OUTPUT_PART_BYTES`], read without loading the rest of the output. Empty at
+    /// or past the output's end; `None` when the output does not exist (or no longer
+    /// does: a download racing a dismissal ends there).
+    async fn output_part(
+        &self,
+        id: Uuid,
+        output_id: &str,
+        offset: u64,
+    ) -> Result<Option<Vec<u8>>, JobStoreError>;
+
+    /// A whole output in memory: for small ones (the summary); downloads read
+    /// [`JobStore::output_part`] instead.
     async fn output(
         &self,
         id: Uuid,
@@ -417,6 +458,15 @@ pub(crate) async fn encode_inputs(inputs: &[u8]) -> Result<Vec<u8>, JobStoreErro
     .map_err(|e| JobStoreError::Corrupt(format!("compressing inputs: {e}")))
 }
 
+/// `inputs` as JSON, compressed as stored (gzip), written straight into the compressor so
+/// the uncompressed JSON is never held whole. CPU work for a blocking thread.
+pub fn compress_json_inputs(inputs: &impl Serialize) -> std::io::Result<Vec<u8>> {
+    let encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    let mut writer = std::io::BufWriter::with_capacity(64 * 1024, encoder);
+    serde_json::to_writer(&mut writer, inputs)?;
+    writer.into_inner().map_err(|e| e.into_error())?.finish()
+}
+
 /// The submitted bytes of inputs stored with `encoding`.
 pub(crate) async fn decode_inputs(
     stored: Vec<u8>,
@@ -437,6 +487,45 @@ pub(crate) async fn decode_inputs(
             "unknown inputs encoding {other:?}"
         ))),
     }
+}
+
+/// An output's bytes cut into the parts it is stored as: `(offset of the first byte,
+/// bytes)`, every part [`OUTPUT_PART_BYTES`] long but the last; none for no bytes.
+pub(crate) fn output_parts(bytes: &[u8]) -> impl Iterator<Item = (i64, &[u8])> {
+    bytes
+        .chunks(OUTPUT_PART_BYTES)
+        .enumerate()
+        .map(|(i, part)| ((i * OUTPUT_PART_BYTES) as i64, part))
+}
+
+/// The bytes from `offset` of the stored part that starts at `start` (the last part
+/// starting at or before `offset`): empty when `offset` lies past its end, which is past
+/// the output's end.
+pub(crate) fn part_from(start: i64, mut part: Vec<u8>, offset: u64) -> Vec<u8> {
+    let skip = usize::try_from(offset.saturating_sub(start.max(0) as u64)).unwrap_or(usize::MAX);
+    if skip >= part.len() {
+        return Vec::new();
+    }
+    part.drain(..skip);
+    part
+}
+
+/// An output put back together from its parts in order; `None` when they do not add up
+/// to its size (a dismissal or the retention sweep deleted them meanwhile).
+pub(crate) fn whole_output(
+    info: OutputInfo,
+    parts: impl Iterator<Item = Vec<u8>>,
+) -> Option<StoredOutput> {
+    let mut bytes = Vec::with_capacity(usize::try_from(info.size_bytes).unwrap_or(0));
+    for part in parts {
+        bytes.extend_from_slice(&part);
+    }
+    (bytes.len() as i64 == info.size_bytes).then_some(StoredOutput {
+        id: info.id,
+        file_name: info.file_name,
+        media_type: info.media_type,
+        bytes,
+    })
 }
 
 /// `states` as the comma-separated list the stores' listing queries take.

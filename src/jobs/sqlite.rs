@@ -17,7 +17,7 @@ use uuid::Uuid;
 use super::{
     ClaimedJob, Dismissal, FailureKind, INPUTS_ENCODING, JobQuery, JobRecord, JobState, JobStore,
     JobStoreError, Lease, OutputInfo, StateCounts, StorageUse, StoredOutput, decode_inputs,
-    encode_inputs, state_list,
+    output_parts, part_from, state_list, whole_output,
 };
 
 /// The schema's versioned migrations (`migrations/sqlite/`), embedded in the binary.
@@ -90,17 +90,25 @@ fn record(row: &SqliteRow) -> Result<JobRecord, JobStoreError> {
     })
 }
 
+fn output_info(row: &SqliteRow) -> Result<OutputInfo, JobStoreError> {
+    Ok(OutputInfo {
+        id: row.try_get("output_id")?,
+        file_name: row.try_get("file_name")?,
+        media_type: row.try_get("media_type")?,
+        size_bytes: row.try_get("size_bytes")?,
+    })
+}
+
 #[async_trait]
 impl JobStore for SqliteStore {
-    async fn submit_owned(
+    async fn submit_compressed(
         &self,
-        inputs: &[u8],
+        compressed_inputs: &[u8],
         owner: Option<&str>,
         max_attempts: i64,
         max_queued: Option<i64>,
         now_ms: i64,
     ) -> Result<JobRecord, JobStoreError> {
-        let stored = encode_inputs(inputs).await?;
         let id = Uuid::new_v4();
         // One statement counts and inserts: SQLite runs it under its write lock.
         let inserted = sqlx::query(
@@ -110,7 +118,7 @@ impl JobStore for SqliteStore {
              WHERE ?5 IS NULL OR (SELECT count(*) FROM jobs WHERE state = 'accepted') < ?5",
         )
         .bind(id.to_string())
-        .bind(&stored)
+        .bind(compressed_inputs)
         .bind(max_attempts)
         .bind(now_ms)
         .bind(max_queued)
@@ -193,12 +201,12 @@ impl JobStore for SqliteStore {
                 .fetch_one(&self.pool)
                 .await?;
         let output_bytes: i64 =
-            sqlx::query_scalar("SELECT coalesce(sum(length(bytes)), 0) FROM job_outputs")
+            sqlx::query_scalar("SELECT coalesce(sum(size_bytes), 0) FROM job_outputs")
                 .fetch_one(&self.pool)
                 .await?;
         let largest_job_bytes: i64 = sqlx::query_scalar(
             "SELECT coalesce(max(length(j.inputs) + coalesce(
-                (SELECT sum(length(o.bytes)) FROM job_outputs o WHERE o.job_id = j.id), 0)), 0)
+                (SELECT sum(o.size_bytes) FROM job_outputs o WHERE o.job_id = j.id), 0)), 0)
              FROM jobs j",
         )
         .fetch_one(&self.pool)
@@ -317,16 +325,28 @@ impl JobStore for SqliteStore {
             .await?;
         for output in outputs {
             sqlx::query(
-                "INSERT INTO job_outputs (job_id, output_id, file_name, media_type, bytes)
+                "INSERT INTO job_outputs (job_id, output_id, file_name, media_type, size_bytes)
                  VALUES (?1, ?2, ?3, ?4, ?5)",
             )
             .bind(lease.job_id.to_string())
             .bind(&output.id)
             .bind(&output.file_name)
             .bind(&output.media_type)
-            .bind(&output.bytes)
+            .bind(output.bytes.len() as i64)
             .execute(&mut *tx)
             .await?;
+            for (start, part) in output_parts(&output.bytes) {
+                sqlx::query(
+                    "INSERT INTO job_output_parts (job_id, output_id, start_byte, bytes)
+                     VALUES (?1, ?2, ?3, ?4)",
+                )
+                .bind(lease.job_id.to_string())
+                .bind(&output.id)
+                .bind(start)
+                .bind(part)
+                .execute(&mut *tx)
+                .await?;
+            }
         }
         tx.commit().await?;
         Ok(true)
@@ -415,22 +435,53 @@ impl JobStore for SqliteStore {
 
     async fn outputs(&self, id: Uuid) -> Result<Vec<OutputInfo>, JobStoreError> {
         let rows = sqlx::query(
-            "SELECT output_id, file_name, media_type, length(bytes) AS size_bytes
+            "SELECT output_id, file_name, media_type, size_bytes
              FROM job_outputs WHERE job_id = ?1 ORDER BY output_id",
         )
         .bind(id.to_string())
         .fetch_all(&self.pool)
         .await?;
-        rows.iter()
-            .map(|row| {
-                Ok(OutputInfo {
-                    id: row.try_get("output_id")?,
-                    file_name: row.try_get("file_name")?,
-                    media_type: row.try_get("media_type")?,
-                    size_bytes: row.try_get("size_bytes")?,
-                })
-            })
-            .collect()
+        rows.iter().map(output_info).collect()
+    }
+
+    async fn output_info(
+        &self,
+        id: Uuid,
+        output_id: &str,
+    ) -> Result<Option<OutputInfo>, JobStoreError> {
+        let row = sqlx::query(
+            "SELECT output_id, file_name, media_type, size_bytes
+             FROM job_outputs WHERE job_id = ?1 AND output_id = ?2",
+        )
+        .bind(id.to_string())
+        .bind(output_id)
+        .fetch_optional(&self.pool)
+        .await?;
+        row.as_ref().map(output_info).transpose()
+    }
+
+    async fn output_part(
+        &self,
+        id: Uuid,
+        output_id: &str,
+        offset: u64,
+    ) -> Result<Option<Vec<u8>>, JobStoreError> {
+        let offset_i64 = i64::try_from(offset).unwrap_or(i64::MAX);
+        let part: Option<(i64, Vec<u8>)> = sqlx::query_as(
+            "SELECT start_byte, bytes FROM job_output_parts
+             WHERE job_id = ?1 AND output_id = ?2 AND start_byte <= ?3
+             ORDER BY start_byte DESC LIMIT 1",
+        )
+        .bind(id.to_string())
+        .bind(output_id)
+        .bind(offset_i64)
+        .fetch_optional(&self.pool)
+        .await?;
+        if let Some((start, bytes)) = part {
+            return Ok(Some(part_from(start, bytes, offset)));
+        }
+        // No part: an output of no bytes, or none at all.
+        Ok(self.output_info(id, output_id).await?.map(|_| Vec::new()))
     }
 
     async fn output(
@@ -438,23 +489,18 @@ impl JobStore for SqliteStore {
         id: Uuid,
         output_id: &str,
     ) -> Result<Option<StoredOutput>, JobStoreError> {
-        let row = sqlx::query(
-            "SELECT output_id, file_name, media_type, bytes FROM job_outputs
-             WHERE job_id = ?1 AND output_id = ?2",
+        let Some(info) = self.output_info(id, output_id).await? else {
+            return Ok(None);
+        };
+        let parts: Vec<(Vec<u8>,)> = sqlx::query_as(
+            "SELECT bytes FROM job_output_parts WHERE job_id = ?1 AND output_id = ?2
+             ORDER BY start_byte",
         )
         .bind(id.to_string())
         .bind(output_id)
-        .fetch_optional(&self.pool)
+        .fetch_all(&self.pool)
         .await?;
-        row.map(|row| {
-            Ok(StoredOutput {
-                id: row.try_get("output_id")?,
-                file_name: row.try_get("file_name")?,
-                media_type: row.try_get("media_type")?,
-                bytes: row.try_get("bytes")?,
-            })
-        })
-        .transpose()
+        Ok(whole_output(info, parts.into_iter().map(|(part,)| part)))
     }
 
     async fn count_by_state(&self) -> Result<StateCounts, JobStoreError> {
