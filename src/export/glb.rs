@@ -3,8 +3,9 @@
 //!
 //! Invariant: axes are (east, up, -north) = (local x, local z, -local y), a proper
 //! rotation, so triangle winding (counter-clockwise from outside) is kept; each body is one
-//! mesh of indexed triangles sharing vertices, exactly `Body::triangles`; every figure in
-//! `extras` comes from the summary.
+//! mesh of indexed triangles sharing vertices, exactly `Body::triangles` except where two
+//! vertices round to one single-precision position (welded, [`welded_indices`]); every
+//! figure in `extras` comes from the summary.
 
 use std::borrow::Cow;
 
@@ -414,11 +415,11 @@ fn add_body(
     figures: &BodyExtras<'_>,
     material: Index<json::Material>,
 ) -> Result<Index<json::Node>, ExportError> {
-    let indices: Vec<u32> = body.triangles.iter().flatten().copied().collect();
+    let positions: Vec<[f32; 3]> = body.positions.iter().map(|&p| to_gltf(p)).collect();
+    let indices = welded_indices(&positions, &body.triangles);
     let mesh = if indices.is_empty() {
         None
     } else {
-        let positions: Vec<[f32; 3]> = body.positions.iter().map(|&p| to_gltf(p)).collect();
         let normals: Vec<[f32; 3]> = vertex_normals(&body.positions, &body.triangles)
             .into_iter()
             .map(to_gltf)
@@ -447,6 +448,36 @@ fn add_body(
         extras: extras(figures)?,
         ..json::Node::default()
     }))
+}
+
+/// The triangles' indices with vertices that single precision cannot tell apart made one.
+///
+/// Two vertices of a body may lie closer than an `f32` step (a DMT vertex a few
+/// micrometres from its neighbour, a kilometre from the origin); written as they are, a
+/// reader that merges equal positions would find their edges shared by four triangles.
+/// Every vertex is replaced by the first with the same `f32` position, and triangles left
+/// with a repeated vertex (those on the collapsed edge) are dropped: an edge collapse,
+/// which keeps a closed body closed. Bodies without such pairs are written unchanged.
+fn welded_indices(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<u32> {
+    let mut first: std::collections::HashMap<[u32; 3], u32> =
+        std::collections::HashMap::with_capacity(positions.len());
+    let mut remap: Vec<u32> = Vec::with_capacity(positions.len());
+    let mut merged = false;
+    for (i, p) in positions.iter().enumerate() {
+        let key = p.map(|c| (c + 0.0).to_bits()); // +0.0 folds -0.0 into 0.0
+        let kept = *first.entry(key).or_insert(i as u32);
+        merged |= kept != i as u32;
+        remap.push(kept);
+    }
+    if !merged {
+        return triangles.iter().flatten().copied().collect();
+    }
+    triangles
+        .iter()
+        .map(|t| t.map(|v| remap[v as usize]))
+        .filter(|[a, b, c]| a != b && b != c && a != c)
+        .flatten()
+        .collect()
 }
 
 /// The `drill holes` node: one LINES primitive of every finite trace with two or more
@@ -591,6 +622,66 @@ mod tests {
         let ey = DVec3::from(to_gltf(DVec3::Y).map(f64::from));
         let ez = DVec3::from(to_gltf(DVec3::Z).map(f64::from));
         assert_eq!(ex.cross(ey).dot(ez), 1.0);
+    }
+
+    /// Each undirected edge and how many triangles hold it.
+    fn edge_counts(indices: &[u32]) -> std::collections::HashMap<(u32, u32), usize> {
+        let mut out = std::collections::HashMap::new();
+        for t in indices.chunks(3) {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                *out.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+            }
+        }
+        out
+    }
+
+    /// An octahedron whose edge 0-1 is split by a vertex a nanometre from vertex 0, a
+    /// kilometre from the origin: closed in double precision, one position in single. The
+    /// welded triangles are the octahedron's again, every edge held by two of them.
+    #[test]
+    fn vertices_single_precision_cannot_tell_apart_are_welded() {
+        let o = DVec3::new(1000.0, 2000.0, 500.0);
+        let mut p: Vec<DVec3> = [
+            DVec3::X,
+            DVec3::Y,
+            DVec3::NEG_X,
+            DVec3::NEG_Y,
+            DVec3::Z,
+            DVec3::NEG_Z,
+        ]
+        .iter()
+        .map(|v| o + *v)
+        .collect();
+        p.push(p[0] + (p[1] - p[0]) * 1e-9);
+        // Octahedron faces around the top (4) and bottom (5), with 0-1 split at 6.
+        let triangles: Vec<[u32; 3]> = vec![
+            [0, 6, 4],
+            [6, 1, 4],
+            [1, 2, 4],
+            [2, 3, 4],
+            [3, 0, 4],
+            [6, 0, 5],
+            [1, 6, 5],
+            [2, 1, 5],
+            [3, 2, 5],
+            [0, 3, 5],
+        ];
+        let before: Vec<u32> = triangles.iter().flatten().copied().collect();
+        assert!(edge_counts(&before).values().all(|&c| c == 2));
+        let positions: Vec<[f32; 3]> = p.iter().map(|&q| to_gltf(q)).collect();
+        assert_eq!(positions[0], positions[6]);
+        let welded = welded_indices(&positions, &triangles);
+        assert_eq!(welded.len(), 8 * 3);
+        assert!(!welded.contains(&6));
+        let counts = edge_counts(&welded);
+        assert_eq!(counts.len(), 12);
+        assert!(counts.values().all(|&c| c == 2), "{counts:?}");
+        // Without such a pair, the indices are the triangles' own.
+        let apart: Vec<[f32; 3]> = p[..6].iter().map(|&q| to_gltf(q)).collect();
+        let octahedron = [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]];
+        let same: Vec<u32> = octahedron.iter().flatten().copied().collect();
+        assert_eq!(welded_indices(&apart, &octahedron), same);
     }
 
     #[test]
