@@ -271,6 +271,20 @@ fn the_default_model_recovers_a_dipping_lens_from_noisy_holes() {
         m.params.orientation
     );
 
+    // Across the thin lens (minor range about 10 m) the refinement stops at the first step
+    // above a quarter of the 1.5 m sample spacing; along the lens it goes to 1/32 of the
+    // ranges.
+    let floor = wellmesh::field::infill::FLOOR_SAMPLES * m.params.spacing.sample;
+    let finest = m.infill.finest_step;
+    assert!(
+        finest[2] >= floor && finest[2] < 2.0 * floor,
+        "finest steps {finest:?}, floor {floor}"
+    );
+    for a in 0..2 {
+        let expected = m.params.ranges[a] * m.infill.coarse_step / 16.0;
+        assert!((finest[a] / expected - 1.0).abs() < 1e-9, "{finest:?}");
+    }
+
     // One body for the lens (plus the far hole's patch, truncated at the model's extent).
     // Beside it at most a flake where the lens thins out at its rim: outside the true lens
     // and under a thousandth of the body (one of 52 m3 at radius 1.1 with the infill's

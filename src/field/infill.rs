@@ -7,13 +7,15 @@
 //! out. Sentinels take a value below every level, so every body closes at the model's
 //! extent (and is flagged truncated there) rather than running along the hull to far holes.
 //! Cells whose corners straddle a level are split in eight, level after level, down to the
-//! resolution: points go where the surface is.
+//! resolution: points go where the surface is. An axis whose finest step would fall below
+//! [`FLOOR_SAMPLES`] sample spacings stops splitting early (its cells split in four or two
+//! after that), so a thin lens is not resolved across far below its assays.
 //!
 //! Invariants: no inside node is farther than [`INSIDE_REACH`] ranges from a sample;
 //! points are jittered by a deterministic hash (a fraction [`JITTER`] of the finest step)
 //! so the Delaunay never meets a co-spherical lattice; the same input gives the same points.
 
-use glam::{DVec3, I64Vec3};
+use glam::{BVec3, DVec3, I64Vec3};
 use rayon::prelude::*;
 
 use super::Field;
@@ -34,6 +36,9 @@ pub const MAX_LEVELS: u32 = 7;
 pub const MAX_COARSE_NODES: usize = 1_000_000;
 /// Refinement stops before a level that would pass this many points.
 pub const MAX_INFILL_POINTS: usize = 1_500_000;
+/// No axis is refined below this many sample spacings (down the holes): finer steps
+/// across a thin lens resolve nothing the assays say and multiply the points.
+pub const FLOOR_SAMPLES: f64 = 0.25;
 /// Jitter of each coordinate, as a fraction of the finest step. Under a half, so nodes
 /// never meet; large, because a nearly co-spherical lattice tetrahedralizes into flat
 /// tetrahedra and DMT into thin triangles (0.2: 5.2-5.7 % slivers on the geology
@@ -76,11 +81,12 @@ enum Node {
 
 struct Lattice<'a> {
     field: &'a Field,
-    /// Lattice units: the finest step, `coarse / 2^levels` ranges.
-    unit: f64,
+    /// Lattice units per axis: the finest step, `coarse / 2^levels` ranges (fewer levels
+    /// on an axis the floor stops).
+    unit: DVec3,
     origin: DVec3,
-    /// Jitter amplitude, range units.
-    shake: f64,
+    /// Jitter amplitude per axis, range units.
+    shake: DVec3,
     nodes: CellMap<I64Vec3, Node>,
     inside: Vec<(I64Vec3, f64)>,
     sentinels: Vec<I64Vec3>,
@@ -173,6 +179,31 @@ fn jitter(key: I64Vec3) -> DVec3 {
     DVec3::new(next(), next(), next())
 }
 
+/// Refinement levels per axis: `refinements`, fewer on an axis whose finest step would
+/// fall below [`FLOOR_SAMPLES`] sample spacings (`coarse` in ranges).
+fn axis_levels(field: &Field, coarse: f64, refinements: u32) -> [u32; 3] {
+    let floor = FLOOR_SAMPLES * field.params.spacing.sample;
+    std::array::from_fn(|a| {
+        let room = (coarse * field.ellipsoid.ranges[a] / floor).log2().floor();
+        if room.is_finite() {
+            (room.max(0.0) as u32).min(refinements)
+        } else {
+            refinements
+        }
+    })
+}
+
+/// Pushes `corner + (x, y, z) * step` for `x < count.x`, `y < count.y`, `z < count.z`.
+fn grid_points(corner: I64Vec3, count: I64Vec3, step: I64Vec3, out: &mut Vec<I64Vec3>) {
+    for x in 0..count.x {
+        for y in 0..count.y {
+            for z in 0..count.z {
+                out.push(corner + I64Vec3::new(x, y, z) * step);
+            }
+        }
+    }
+}
+
 /// The infill of `field` for the (transformed) `levels`: `levels` refinement steps below the
 /// coarse lattice (see the module's notes). `None` if cancelled.
 pub fn infill(
@@ -202,8 +233,10 @@ pub fn infill(
     while count(coarse) > MAX_COARSE_NODES as f64 {
         coarse *= 1.25;
     }
-    let scale = 1i64 << refinements;
-    let unit = coarse / scale as f64;
+    let ranges = field.ellipsoid.ranges;
+    let axis_levels = axis_levels(field, coarse, refinements);
+    let scale = I64Vec3::from_array(axis_levels.map(|l| 1i64 << l));
+    let unit = coarse / scale.as_dvec3();
     let mut lattice = Lattice {
         field,
         unit,
@@ -236,7 +269,7 @@ pub fn infill(
         levels: refinements,
         ..InfillStats::default()
     };
-    let straddles = |lattice: &Lattice, cell: I64Vec3, size: i64| -> bool {
+    let straddles = |lattice: &Lattice, cell: I64Vec3, size: I64Vec3| -> bool {
         let mut lo = f64::INFINITY;
         let mut hi = f64::NEG_INFINITY;
         for c in CORNERS {
@@ -252,12 +285,16 @@ pub fn infill(
     };
     let mut size = scale;
     for level in 0..refinements {
+        // An axis with fewer levels splits at the first ones (the coarse cells' straddle
+        // test stays as tight as before) and keeps its size after.
+        let splits = BVec3::from_array(axis_levels.map(|l| level < l));
         report(f64::from(level) / f64::from(refinements.max(1)));
         let split: Vec<I64Vec3> = cells
             .into_iter()
             .filter(|&c| straddles(&lattice, c, size))
             .collect();
-        let half = size / 2;
+        let half = I64Vec3::select(splits, size / 2, size);
+        let along = I64Vec3::select(splits, I64Vec3::splat(3), I64Vec3::splat(2));
         let projected = lattice.inside.len() + lattice.sentinels.len() + split.len() * 19;
         if split.is_empty() || projected > MAX_INFILL_POINTS {
             cells = Vec::new();
@@ -267,16 +304,8 @@ pub fn infill(
         let mut keys = Vec::with_capacity(split.len() * 27);
         let mut next = Vec::with_capacity(split.len() * 8);
         for &c in &split {
-            for x in 0..3 {
-                for y in 0..3 {
-                    for z in 0..3 {
-                        keys.push(c + I64Vec3::new(x, y, z) * half);
-                    }
-                }
-            }
-            for corner in CORNERS {
-                next.push(c + corner * half);
-            }
+            grid_points(c, along, half, &mut keys);
+            grid_points(c, along - I64Vec3::ONE, half, &mut next);
         }
         lattice.add(keys, cancelled)?;
         cells = next;
@@ -285,9 +314,11 @@ pub fn infill(
     }
     drop(cells);
     report(1.0);
-    let finest = unit * f64::from(1u32 << (refinements - stats.levels_reached));
-    let ranges = field.ellipsoid.ranges;
-    stats.finest_step = [finest * ranges[0], finest * ranges[1], finest * ranges[2]];
+    let finest: [f64; 3] = std::array::from_fn(|a| {
+        let reached = stats.levels_reached.min(axis_levels[a]);
+        unit[a] * f64::from(1u32 << (axis_levels[a] - reached)) * ranges[a]
+    });
+    stats.finest_step = finest;
     stats.inside_points = lattice.inside.len();
     stats.sentinel_points = lattice.sentinels.len();
     let place = |k: I64Vec3| field.ellipsoid.from_unit(lattice.unit_position(k));
