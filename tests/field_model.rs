@@ -242,10 +242,35 @@ fn near_the_lens(b: &Body) -> bool {
 }
 
 fn run(options: ContourOptions) -> ContourResult {
+    run_on(drilled(), options)
+}
+
+fn run_on(samples: SampleSet, options: ContourOptions) -> ContourResult {
     let request = options
-        .into_request(Source::Samples(drilled()))
+        .into_request(Source::Samples(samples))
         .expect("valid options");
     contour::run(&request, &NoProgress).expect("the pipeline contours the lens")
+}
+
+/// The drilled lens logged as a 0/1 flag: 1 where the noisy assay is at least 5 %.
+fn flagged() -> SampleSet {
+    let mut samples = drilled();
+    for v in &mut samples.values {
+        *v = v.map(|g| f64::from(u8::from(g >= CUT)));
+    }
+    samples
+}
+
+/// The volume of the bodies around the lens, against the true lens's.
+fn lens_volume_error(result: &ContourResult) -> f64 {
+    let true_volume = 4.0 / 3.0 * std::f64::consts::PI * SEMI_AXES.x * SEMI_AXES.y * SEMI_AXES.z;
+    let volume: f64 = result.shells[0]
+        .bodies
+        .iter()
+        .filter(|b| near_the_lens(b))
+        .map(|b| b.volume)
+        .sum();
+    volume / true_volume - 1.0
 }
 
 #[test]
@@ -370,6 +395,8 @@ fn given_parameters_are_used_and_recorded() {
     assert_eq!(m.params.orientation.dip, DIP);
     assert_eq!(m.params.nugget, 0.1);
     assert!(m.params.top_cut_samples > 0);
+    // Grades are not flags: no contacts, whatever `flag_field` says.
+    assert_eq!(m.params.contact_cap, None);
     // The shell is reported at the threshold given, contoured at its transform.
     assert_eq!(model.summary.shells[0].threshold, CUT);
     assert!((m.levels[0] - CUT.ln()).abs() < 1e-9, "{:?}", m.levels);
@@ -379,6 +406,52 @@ fn given_parameters_are_used_and_recorded() {
         .filter(|b| near_the_lens(b))
         .count();
     assert_eq!(bodies, 1);
+}
+
+#[test]
+fn flags_are_modelled_by_the_distance_to_their_contacts() {
+    let half = || ContourOptions {
+        thresholds: vec![0.5],
+        ..ContourOptions::default()
+    };
+    let distance = run_on(flagged(), half());
+    let m = distance.summary.model.as_ref().unwrap();
+    // The default for 0/1 values: the signed distance, capped at half the minor range,
+    // contoured at zero; the shell is still reported at 0.5.
+    let cap = m
+        .params
+        .contact_cap
+        .expect("a flag is modelled by its contacts");
+    assert!((cap / m.params.ranges[2] - 0.5).abs() < 1e-12, "{cap}");
+    assert_eq!(m.levels, vec![0.0]);
+    assert_eq!(distance.summary.shells[0].threshold, 0.5);
+    let indicator = run_on(
+        flagged(),
+        ContourOptions {
+            flag_field: Some("indicator".into()),
+            ..half()
+        },
+    );
+    let im = indicator.summary.model.as_ref().unwrap();
+    assert_eq!(im.params.contact_cap, None);
+    assert_eq!(im.levels, vec![0.5]);
+    let (d_iou, i_iou) = (iou(&distance), iou(&indicator));
+    let (d_err, i_err) = (lens_volume_error(&distance), lens_volume_error(&indicator));
+    eprintln!(
+        "flags: distance IoU {d_iou:.3} volume {:+.1} %, indicator IoU {i_iou:.3} volume {:+.1} %",
+        d_err * 100.0,
+        i_err * 100.0
+    );
+    // A thin lens keeps its thickness between the holes: the distance's body is about the
+    // true volume, closer than the indicator's (which smooths the 0/1 step away), and
+    // overlaps the true lens at least as well.
+    assert!(d_err.abs() < 0.15, "volume error {d_err:+.3}");
+    assert!(d_err.abs() < i_err.abs(), "{d_err:+.3} vs {i_err:+.3}");
+    assert!(
+        d_iou > 0.75 && d_iou > i_iou - 0.01,
+        "{d_iou:.3} vs {i_iou:.3}"
+    );
+    assert!(distance.shells[0].bodies.iter().all(|b| b.closed));
 }
 
 #[test]
@@ -403,4 +476,10 @@ fn model_options_are_refused_with_the_linear_interpolant_and_named() {
         ..ContourOptions::default()
     };
     assert_eq!(both.check().unwrap_err().field, "anisotropy");
+    let flag = ContourOptions {
+        thresholds: vec![0.5],
+        flag_field: Some("contacts".into()),
+        ..ContourOptions::default()
+    };
+    assert_eq!(flag.check().unwrap_err().field, "flag_field");
 }

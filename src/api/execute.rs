@@ -90,6 +90,8 @@ pub struct MultipartInputs {
     spheroidal_order: Option<u8>,
     /// `none`, `log` or `normal-score`.
     transform: Option<String>,
+    /// `distance` (default) or `indicator`: how 0/1 flags are modelled.
+    flag_field: Option<String>,
     top_cut: Option<f64>,
     /// Finest infill step along the major axis.
     resolution: Option<f64>,
@@ -418,9 +420,10 @@ fn plain_reason(reason: &str, sent: Option<&Value>) -> String {
         .replace("expected f64", "expected a number")
 }
 
-const TEXT_FIELDS: [&str; 12] = [
+const TEXT_FIELDS: [&str; 13] = [
     "interpolant",
     "transform",
+    "flag_field",
     "samples_csv",
     "collars_csv",
     "surveys_csv",

@@ -150,6 +150,12 @@ pub struct Args {
     #[arg(long, value_name = "NAME", help_heading = MODEL)]
     pub transform: Option<String>,
 
+    /// How 0/1 flags (and --inside CODE) are modelled: distance (default: the signed
+    /// distance to the contacts down each hole, contoured at zero, which keeps a thin lens's
+    /// thickness between holes) or indicator (the kriged 0s and 1s, contoured at 0.5).
+    #[arg(long, value_name = "NAME", help_heading = MODEL)]
+    pub flag_field: Option<String>,
+
     /// Cap values above this before the fit (a top-cut of outliers).
     #[arg(long, value_name = "VALUE", help_heading = MODEL)]
     pub top_cut: Option<f64>,
@@ -232,6 +238,7 @@ impl Args {
             nugget: self.nugget,
             spheroidal_order: self.spheroidal_order,
             transform: self.transform.clone(),
+            flag_field: self.flag_field.clone(),
             top_cut: self.top_cut,
             resolution: self.resolution,
             max_samples: self.max_samples,

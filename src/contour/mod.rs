@@ -382,7 +382,7 @@ impl Prepared {
 fn raw_scale(prepared: &mut Prepared) {
     let Prepared { data, model, .. } = prepared;
     if let Some((field, _)) = model
-        && field.transform.kind() != crate::field::TransformKind::None
+        && !matches!(field.transform, crate::field::Transform::None)
     {
         for v in &mut data.values {
             *v = field.transform.invert(*v);

@@ -11,7 +11,7 @@ use glam::{DMat3, DVec3};
 use serde::Serialize;
 
 use crate::dmt::{self, Method, Placement};
-use crate::field::{ModelOptions, Neighbourhood, Orientation, TransformKind};
+use crate::field::{FlagField, ModelOptions, Neighbourhood, Orientation, TransformKind};
 use crate::wells::SampleSet;
 
 /// How the values between the samples are made.
@@ -349,6 +349,8 @@ pub struct ContourOptions {
     pub spheroidal_order: Option<u8>,
     /// `none`, `log` or `normal-score`.
     pub transform: Option<String>,
+    /// How 0/1 flags are modelled: `distance` (default) or `indicator`.
+    pub flag_field: Option<String>,
     pub top_cut: Option<f64>,
     /// Finest infill step along the major axis, input units.
     pub resolution: Option<f64>,
@@ -496,6 +498,7 @@ impl ContourOptions {
             ("nugget", self.nugget.is_some()),
             ("spheroidal_order", self.spheroidal_order.is_some()),
             ("transform", self.transform.is_some()),
+            ("flag_field", self.flag_field.is_some()),
             ("top_cut", self.top_cut.is_some()),
             ("resolution", self.resolution.is_some()),
             ("max_samples", self.max_samples.is_some()),
@@ -564,6 +567,12 @@ impl ContourOptions {
                 .parse::<TransformKind>()
                 .map_err(|e| OptionError::new("transform", e))?,
         };
+        let flag_field = match self.flag_field.as_deref() {
+            None => FlagField::default(),
+            Some(f) => f
+                .parse::<FlagField>()
+                .map_err(|e| OptionError::new("flag_field", e))?,
+        };
         let top_cut = match self.top_cut {
             Some(c) if !c.is_finite() => {
                 return Err(OptionError::new("top_cut", "must be a finite number"));
@@ -594,6 +603,7 @@ impl ContourOptions {
             top_cut,
             resolution,
             neighbourhood,
+            flag_field,
         })
     }
 

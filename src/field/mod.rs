@@ -10,6 +10,7 @@
 //!
 //! This is a geometry room: no async runtime, no web framework, no database.
 
+pub mod contacts;
 pub mod estimate;
 pub mod frame;
 pub mod infill;
@@ -24,6 +25,10 @@ pub use estimate::{InterceptGeometry, Samples, Spacing};
 pub use frame::{Ellipsoid, Orientation};
 pub use kriging::Neighbourhood;
 pub use transform::{Transform, TransformKind};
+
+/// The signed distances to the contacts are capped at this many minor ranges: far from
+/// every contact a sample says "ore" or "waste", not how far (docs/field.md).
+pub const CONTACT_CAP_MINOR: f64 = 0.5;
 
 /// What a request may fix of the model; everything left `None` is found from the data.
 #[derive(Debug, Clone, PartialEq)]
@@ -42,6 +47,34 @@ pub struct ModelOptions {
     /// Finest infill step along the major axis, input units; `None`: 1/32 of the range.
     pub resolution: Option<f64>,
     pub neighbourhood: Neighbourhood,
+    /// How 0/1 values (flags, `--inside CODE`) are modelled.
+    pub flag_field: FlagField,
+}
+
+/// How a field of 0/1 values is modelled (grades are modelled as they are).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FlagField {
+    /// The signed distance to the contacts down each hole, contoured at zero
+    /// (`contacts.rs`).
+    #[default]
+    Distance,
+    /// The kriged 0s and 1s, contoured at the threshold (0.5).
+    Indicator,
+}
+
+impl std::str::FromStr for FlagField {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "distance" => Ok(FlagField::Distance),
+            "indicator" => Ok(FlagField::Indicator),
+            other => Err(format!(
+                "unknown flag field {other:?}: expected distance or indicator"
+            )),
+        }
+    }
 }
 
 impl Default for ModelOptions {
@@ -56,6 +89,7 @@ impl Default for ModelOptions {
             top_cut: None,
             resolution: None,
             neighbourhood: Neighbourhood::default(),
+            flag_field: FlagField::default(),
         }
     }
 }
@@ -86,6 +120,11 @@ pub struct FieldParams {
     pub orientation: Orientation,
     pub sources: ParamSources,
     pub transform: TransformKind,
+    /// How 0/1 values are modelled (the option; it applies only when every value is 0 or 1).
+    pub flag_field: FlagField,
+    /// The cap of the signed distances, input units, when the field is the distance to the
+    /// contacts of a flag; `None` otherwise.
+    pub contact_cap: Option<f64>,
     pub top_cut: Option<f64>,
     /// Samples whose value the top-cut lowered.
     pub top_cut_samples: usize,
@@ -159,6 +198,19 @@ impl Field {
         let geometry = estimate::intercept_geometry(&cuts);
         let (orientation, ranges, orientation_source, range_source) =
             shape(options, geometry.as_ref(), spacing);
+        let (transform, t, sill, nugget) = match contacts_cap(&t, ranges, options) {
+            Some(cap) => {
+                let level = transform.apply(level);
+                let share = if sill > 0.0 { nugget / sill } else { 0.0 };
+                let values = contacts::signed_distances(&t, &holes, level, cap);
+                let t = Samples { values, ..t };
+                let (d_sill, _) = estimate::sill_and_nugget(&t, &holes);
+                let sill = options.sill.unwrap_or(d_sill);
+                let nugget = options.nugget.unwrap_or(share * sill);
+                (Transform::Contacts { level, cap }, t, sill, nugget)
+            }
+            None => (transform, t, sill, nugget),
+        };
         let ellipsoid = Ellipsoid::new(orientation, ranges);
         let samples_unit: Vec<DVec3> = t.points.iter().map(|p| ellipsoid.to_unit(*p)).collect();
         let nugget_share = if sill > 0.0 {
@@ -188,6 +240,11 @@ impl Field {
                 ranges: range_source,
             },
             transform: options.transform,
+            flag_field: options.flag_field,
+            contact_cap: match transform {
+                Transform::Contacts { cap, .. } => Some(cap),
+                _ => None,
+            },
             top_cut: options.top_cut,
             top_cut_samples,
             neighbourhood: options.neighbourhood,
@@ -236,6 +293,14 @@ impl Field {
             }
         }
     }
+}
+
+/// The cap of the signed distances when a flag is modelled by its contacts
+/// ([`CONTACT_CAP_MINOR`] minor ranges): `None` for an indicator, or when a value is
+/// neither 0 nor 1 (a grade).
+fn contacts_cap(t: &Samples, ranges: [f64; 3], options: &ModelOptions) -> Option<f64> {
+    let binary = t.values.iter().all(|v| *v == 0.0 || *v == 1.0);
+    (binary && options.flag_field == FlagField::Distance).then_some(CONTACT_CAP_MINOR * ranges[2])
 }
 
 /// Values capped at `cut`, and how many were.

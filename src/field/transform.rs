@@ -46,6 +46,13 @@ pub enum Transform {
         values: Vec<f64>,
         scores: Vec<f64>,
     },
+    /// A flag modelled as the signed distance to its contacts (`contacts.rs`): thresholds
+    /// map linearly so that `level` is distance zero and `level +- 0.5` is `+-cap`; back
+    /// from distances, values are clamped to `level +- 0.5` (0 and 1 for a flag at 0.5).
+    Contacts {
+        level: f64,
+        cap: f64,
+    },
 }
 
 impl Transform {
@@ -94,6 +101,7 @@ impl Transform {
             Transform::None => TransformKind::None,
             Transform::Log { .. } => TransformKind::Log,
             Transform::NormalScore { .. } => TransformKind::NormalScore,
+            Transform::Contacts { .. } => TransformKind::None,
         }
     }
 
@@ -103,6 +111,7 @@ impl Transform {
             Transform::None => v,
             Transform::Log { shift } => (v + shift).max(f64::MIN_POSITIVE).ln(),
             Transform::NormalScore { values, scores } => interpolate(values, scores, v),
+            Transform::Contacts { level, cap } => (v - level) * 2.0 * cap,
         }
     }
 
@@ -112,6 +121,9 @@ impl Transform {
             Transform::None => y,
             Transform::Log { shift } => y.exp() - shift,
             Transform::NormalScore { values, scores } => interpolate(scores, values, y),
+            Transform::Contacts { level, cap } => {
+                (level + y / (2.0 * cap)).clamp(level - 0.5, level + 0.5)
+            }
         }
     }
 }

@@ -146,6 +146,7 @@ const TITLES: &[(&str, &str)] = &[
     ("nugget", "Nugget"),
     ("spheroidal_order", "Spheroidal order"),
     ("transform", "Value transform"),
+    ("flag_field", "Flag field"),
     ("top_cut", "Top-cut"),
     ("resolution", "Infill resolution"),
     ("max_samples", "Samples per kriging block"),

@@ -134,6 +134,10 @@ pub struct ProcessInputs {
     /// Transform before the fit: `none` (default), `log` or `normal-score`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub transform: Option<String>,
+    /// How 0/1 flags are modelled: `distance` (default; the signed distance to the contacts
+    /// down each hole, contoured at zero) or `indicator` (the kriged 0s and 1s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flag_field: Option<String>,
     /// Values above this are capped to it before the fit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub top_cut: Option<f64>,
@@ -307,6 +311,7 @@ impl ProcessInputs {
             nugget: self.nugget,
             spheroidal_order: self.spheroidal_order,
             transform: self.transform.clone(),
+            flag_field: self.flag_field.clone(),
             top_cut: self.top_cut,
             resolution: self.resolution,
             max_samples: self.max_samples,
