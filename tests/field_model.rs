@@ -295,6 +295,13 @@ fn the_default_model_recovers_a_dipping_lens_from_noisy_holes() {
         "orientation {:?} is {angle:.1} degrees off",
         m.params.orientation
     );
+    // One lens: the variogram map agrees within its margin, and the intercepts' plane
+    // (the more precise) is kept.
+    let map = m.params.intercepts.as_ref().and_then(|g| g.map).unwrap();
+    assert!(
+        !map.used && m.params.sources.orientation == wellmesh::field::Source::Intercepts,
+        "{map:?}"
+    );
 
     // Across the thin lens (minor range about 10 m) the refinement stops at the first step
     // above a quarter of the 1.5 m sample spacing; along the lens it goes to 1/32 of the
@@ -482,4 +489,68 @@ fn model_options_are_refused_with_the_linear_interpolant_and_named() {
         ..ContourOptions::default()
     };
     assert_eq!(flag.check().unwrap_err().field, "flag_field");
+}
+
+/// Five parallel slabs 6 m thick dipping 70 degrees east, side by side 100 m apart at the
+/// same depth, drilled at -50 toward the west: the intercepts' centres spread over a gently
+/// inclined band (the drilled area), and only the variogram map sees the slabs' plane
+/// (to the few degrees its direction bins and 15-degree tolerance allow).
+#[test]
+fn the_variogram_map_finds_the_plane_of_staggered_steep_lenses() {
+    use wellmesh::field::{Field, ModelOptions, Samples, Source};
+    let n = wellmesh::field::Orientation {
+        dip_direction: 90.0,
+        dip: 70.0,
+        pitch: 0.0,
+    }
+    .axes();
+    let (down_dip, normal) = (n[1], n[2]);
+    let inside = |p: DVec3| {
+        (0..5).any(|k| {
+            let d = p - DVec3::new(100.0 * f64::from(k), 0.0, -110.0);
+            d.dot(normal).abs() < 3.0 && d.dot(down_dip).abs() < 60.0 && d.y.abs() < 150.0
+        })
+    };
+    let mut s = Samples::default();
+    let mut hole = 0;
+    let down = DVec3::new(
+        -(50f64.to_radians().cos()),
+        0.0,
+        -(50f64.to_radians().sin()),
+    );
+    for ix in -2..=30 {
+        for iy in -7..=7 {
+            let (x, y) = (15.0 * f64::from(ix), 20.0 * f64::from(iy));
+            for k in 0..140 {
+                let p = DVec3::new(x, y, 0.0) + down * (1.5 * f64::from(k));
+                s.points.push(p);
+                s.values.push(f64::from(u8::from(inside(p))));
+                s.holes.push(hole);
+            }
+            hole += 1;
+        }
+    }
+    let field = Field::fit(&s, &[0.5], &ModelOptions::default()).unwrap();
+    let p = &field.params;
+    let map = p.intercepts.as_ref().and_then(|g| g.map).expect("a map");
+    let found = p.orientation.axes()[2];
+    let angle = found.dot(normal).abs().min(1.0).acos().to_degrees();
+    assert!(
+        map.used && p.sources.orientation == Source::Variogram,
+        "{map:?}"
+    );
+    assert!(angle < 4.0, "{:?} is {angle:.1} degrees off", p.orientation);
+    assert!(map.gamma < 0.96 * map.intercepts_gamma, "{map:?}");
+    // The premise: the intercepts' own principal plane is far from the slabs'.
+    let holes = s.by_hole();
+    let spacing = wellmesh::field::estimate::spacing(&s, &holes);
+    let cuts = wellmesh::field::estimate::intercepts(&s, &holes, 0.5, spacing.sample);
+    let own = wellmesh::field::estimate::intercept_geometry(&cuts, None).unwrap();
+    let own_angle = own.orientation.axes()[2]
+        .dot(normal)
+        .abs()
+        .acos()
+        .to_degrees();
+    eprintln!("map {angle:.1} degrees off, the intercepts' plane {own_angle:.1}");
+    assert!(own_angle > 30.0, "{:?}", own.orientation);
 }

@@ -264,11 +264,35 @@ pub struct InterceptGeometry {
     pub thickness: f64,
     pub holes: usize,
     pub intercepts: usize,
+    /// What the variogram map said, when it could be drawn (`continuity.rs`).
+    pub map: Option<MapScores>,
 }
 
+/// The variogram map's verdict on the ore's plane.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct MapScores {
+    /// The plane of best continuity (its pitch is that of the orientation used).
+    pub plane: Orientation,
+    /// Mean indicator semivariogram of the ore's pairs in that plane...
+    pub gamma: f64,
+    /// ... and in the plane of the intercepts' principal axes.
+    pub intercepts_gamma: f64,
+    /// Whether the map's plane was used: its semivariogram is below the intercepts' by
+    /// more than [`MAP_MARGIN`] of it.
+    pub used: bool,
+}
+
+/// The variogram map's plane replaces the intercepts' when its semivariogram is lower by
+/// more than this share (docs/field.md).
+pub const MAP_MARGIN: f64 = 0.04;
+
 /// The orientation and extent of the ore from the intercepts at `level`, when at least
-/// [`MIN_INTERCEPT_HOLES`] holes cut it.
-pub fn intercept_geometry(intercepts: &[Intercept]) -> Option<InterceptGeometry> {
+/// [`MIN_INTERCEPT_HOLES`] holes cut it: in the plane normal to `plane` when given (the
+/// centres' spread projected into it), else in the plane of their principal axes.
+pub fn intercept_geometry(
+    intercepts: &[Intercept],
+    plane: Option<DVec3>,
+) -> Option<InterceptGeometry> {
     let mut holes: Vec<u32> = intercepts.iter().map(|i| i.hole).collect();
     holes.sort_unstable();
     holes.dedup();
@@ -306,11 +330,16 @@ pub fn intercept_geometry(intercepts: &[Intercept]) -> Option<InterceptGeometry>
         cov += DMat3::from_cols(d * d.x, d * d.y, d * d.z) * i.length;
     }
     cov *= 1.0 / total;
+    if let Some(n) = plane {
+        let n = n.normalize();
+        let project = DMat3::IDENTITY - DMat3::from_cols(n * n.x, n * n.y, n * n.z);
+        cov = project * cov * project;
+    }
     let (vals, vecs) = principal_axes(cov);
     if vals[1] <= 0.0 {
         return None;
     }
-    let normal = vecs[2];
+    let normal = plane.map_or(vecs[2], DVec3::normalize);
     let mut longest: std::collections::HashMap<u32, &Intercept> = std::collections::HashMap::new();
     for &i in &intercepts {
         let e = longest.entry(i.hole).or_insert(i);
@@ -333,6 +362,7 @@ pub fn intercept_geometry(intercepts: &[Intercept]) -> Option<InterceptGeometry>
         thickness,
         holes: holes.len(),
         intercepts: intercepts.len(),
+        map: None,
     })
 }
 
@@ -373,7 +403,7 @@ mod tests {
         assert!((sp.sample - 1.5).abs() < 1e-9 && (sp.hole - 20.0).abs() < 1e-9);
         let cuts = intercepts(&s, &holes, 0.5, sp.sample);
         assert_eq!(cuts.len(), 36);
-        let g = intercept_geometry(&cuts).unwrap();
+        let g = intercept_geometry(&cuts, None).unwrap();
         assert!(g.orientation.dip < 1e-6, "{:?}", g.orientation);
         assert!((g.thickness - 6.0).abs() < 1e-9, "{}", g.thickness);
         // A uniform 6 x 6 grid 100 m wide has a standard deviation of 34.2 m per axis.

@@ -3,7 +3,7 @@
 //!
 //! [`Field::fit`] finds every parameter the request leaves open from the data (sill and
 //! nugget from the variance and the down-hole variogram, the ore's orientation and ranges
-//! from the intercepts at the lowest level), builds a [`kriging::BlockKriging`] in the
+//! from the intercepts at the lowest level, the plane checked by a variogram map), builds a [`kriging::BlockKriging`] in the
 //! anisotropy ellipsoid's range units, and [`infill::infill`] places the points where the
 //! field is evaluated. `contour` tetrahedralizes the samples with those points and runs
 //! DMT unchanged on the field's values (docs/field.md).
@@ -11,6 +11,7 @@
 //! This is a geometry room: no async runtime, no web framework, no database.
 
 pub mod contacts;
+pub mod continuity;
 pub mod estimate;
 pub mod frame;
 pub mod infill;
@@ -101,7 +102,8 @@ pub enum Source {
     Given,
     /// From the intercepts at the lowest level.
     Intercepts,
-    /// From the down-hole variogram or the variance.
+    /// From the down-hole variogram or the variance (sill, nugget), or the variogram map
+    /// (the orientation, `continuity.rs`).
     Variogram,
     /// No rule applied (too few holes cut the ore): the documented fallback.
     Default,
@@ -195,7 +197,7 @@ impl Field {
         let (sill, nugget, sill_nugget_sources) = sill_and_nugget(&t, &holes, options);
         let level = levels.iter().copied().fold(f64::INFINITY, f64::min);
         let cuts = estimate::intercepts(&t, &holes, transform.apply(level), spacing.sample);
-        let geometry = estimate::intercept_geometry(&cuts);
+        let geometry = ore_geometry(&t, &cuts, transform.apply(level), spacing);
         let (orientation, ranges, orientation_source, range_source) =
             shape(options, geometry.as_ref(), spacing);
         let (transform, t, sill, nugget) = match contacts_cap(&t, ranges, options) {
@@ -295,6 +297,37 @@ impl Field {
     }
 }
 
+/// The ore's geometry from the intercepts, in the plane of their principal axes unless
+/// the variogram map finds a plane of clearly better continuity (by more than
+/// [`estimate::MAP_MARGIN`]): then in the map's plane.
+fn ore_geometry(
+    t: &Samples,
+    cuts: &[estimate::Intercept],
+    level: f64,
+    spacing: Spacing,
+) -> Option<InterceptGeometry> {
+    let own = estimate::intercept_geometry(cuts, None)?;
+    let map = continuity::DirectionBins::new(t, level, spacing.hole);
+    let scores = map
+        .as_ref()
+        .and_then(|m| Some((m.best()?, m.score(own.orientation.axes()[2])?)));
+    let Some((best, own_gamma)) = scores else {
+        return Some(own);
+    };
+    let mapped = (best.gamma < own_gamma * (1.0 - estimate::MAP_MARGIN))
+        .then(|| estimate::intercept_geometry(cuts, Some(best.normal)))
+        .flatten();
+    let used = mapped.is_some();
+    let mut geometry = mapped.unwrap_or(own);
+    geometry.map = Some(estimate::MapScores {
+        plane: Orientation::from_axes(geometry.orientation.axes()[0], best.normal),
+        gamma: best.gamma,
+        intercepts_gamma: own_gamma,
+        used,
+    });
+    Some(geometry)
+}
+
 /// The cap of the signed distances when a flag is modelled by its contacts
 /// ([`CONTACT_CAP_MINOR`] minor ranges): `None` for an indicator, or when a value is
 /// neither 0 nor 1 (a grade).
@@ -347,6 +380,7 @@ fn shape(
 ) -> (Orientation, [f64; 3], Source, Source) {
     let (orientation, orientation_source) = match (options.orientation, geometry) {
         (Some(o), _) => (o, Source::Given),
+        (None, Some(g)) if g.map.is_some_and(|m| m.used) => (g.orientation, Source::Variogram),
         (None, Some(g)) => (g.orientation, Source::Intercepts),
         (None, None) => (Orientation::FLAT, Source::Default),
     };
