@@ -92,6 +92,8 @@ pub struct MultipartInputs {
     transform: Option<String>,
     /// `distance` (default) or `indicator`: how 0/1 flags are modelled.
     flag_field: Option<String>,
+    /// `intercepts` (default) or `cross-validation`: where ranges not given come from.
+    ranges_from: Option<String>,
     top_cut: Option<f64>,
     /// Finest infill step along the major axis.
     resolution: Option<f64>,
@@ -420,10 +422,11 @@ fn plain_reason(reason: &str, sent: Option<&Value>) -> String {
         .replace("expected f64", "expected a number")
 }
 
-const TEXT_FIELDS: [&str; 13] = [
+const TEXT_FIELDS: [&str; 14] = [
     "interpolant",
     "transform",
     "flag_field",
+    "ranges_from",
     "samples_csv",
     "collars_csv",
     "surveys_csv",

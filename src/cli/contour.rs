@@ -156,6 +156,14 @@ pub struct Args {
     #[arg(long, value_name = "NAME", help_heading = MODEL)]
     pub flag_field: Option<String>,
 
+    /// Where ranges not given by --ranges come from: intercepts (default: the extent and
+    /// thickness of the runs of ore down the holes, bounded at 1.5-6 hole spacings) or
+    /// cross-validation (those ranges scaled, across the ore by up to 4 and in its plane
+    /// down to 0.4, keeping the scale whose model puts held-out holes' samples on the right
+    /// side of the threshold most often; slower, recorded in the summary's range_search).
+    #[arg(long, value_name = "NAME", help_heading = MODEL)]
+    pub ranges_from: Option<String>,
+
     /// Cap values above this before the fit (a top-cut of outliers).
     #[arg(long, value_name = "VALUE", help_heading = MODEL)]
     pub top_cut: Option<f64>,
@@ -239,6 +247,7 @@ impl Args {
             spheroidal_order: self.spheroidal_order,
             transform: self.transform.clone(),
             flag_field: self.flag_field.clone(),
+            ranges_from: self.ranges_from.clone(),
             top_cut: self.top_cut,
             resolution: self.resolution,
             max_samples: self.max_samples,

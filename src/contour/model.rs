@@ -74,8 +74,8 @@ pub(super) fn model(
         });
     }
     progress.report(Stage::Fit, 0.0);
-    let field = Field::fit(&known, thresholds, options)?;
     let cancelled = || progress.is_cancelled();
+    let field = Field::fit_cancellable(&known, thresholds, options, &cancelled)?;
     let at_samples = field
         .evaluate(&known.points, &cancelled)
         .ok_or(ContourError::Cancelled)?;

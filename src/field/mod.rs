@@ -18,6 +18,7 @@ pub mod infill;
 pub mod kernel;
 pub mod kriging;
 pub mod transform;
+pub mod tune;
 
 use glam::DVec3;
 use serde::Serialize;
@@ -50,6 +51,33 @@ pub struct ModelOptions {
     pub neighbourhood: Neighbourhood,
     /// How 0/1 values (flags, `--inside CODE`) are modelled.
     pub flag_field: FlagField,
+    /// Where the ranges come from when they are not given.
+    pub ranges_from: RangesFrom,
+}
+
+/// Where the ranges come from when a request does not give them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RangesFrom {
+    /// The intercepts' extent and thickness, bounded (docs/field.md).
+    #[default]
+    Intercepts,
+    /// The intercepts' ranges scaled by leave-holes-out cross-validation (`tune.rs`).
+    CrossValidation,
+}
+
+impl std::str::FromStr for RangesFrom {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "intercepts" => Ok(RangesFrom::Intercepts),
+            "cross-validation" => Ok(RangesFrom::CrossValidation),
+            other => Err(format!(
+                "unknown source of ranges {other:?}: expected intercepts or cross-validation"
+            )),
+        }
+    }
 }
 
 /// How a field of 0/1 values is modelled (grades are modelled as they are).
@@ -91,6 +119,7 @@ impl Default for ModelOptions {
             resolution: None,
             neighbourhood: Neighbourhood::default(),
             flag_field: FlagField::default(),
+            ranges_from: RangesFrom::default(),
         }
     }
 }
@@ -107,6 +136,8 @@ pub enum Source {
     Variogram,
     /// No rule applied (too few holes cut the ore): the documented fallback.
     Default,
+    /// The intercepts' ranges scaled by leave-holes-out cross-validation (`tune.rs`).
+    CrossValidation,
 }
 
 /// Every parameter of a fitted model, as the summary records it: enough to reproduce the
@@ -134,6 +165,10 @@ pub struct FieldParams {
     pub spacing: Spacing,
     /// What the intercepts said, when enough holes cut the ore (before the bounds).
     pub intercepts: Option<InterceptGeometry>,
+    /// Where the ranges were asked to come from when not given (the option).
+    pub ranges_from: RangesFrom,
+    /// The cross-validated candidates of the ranges, when they were searched.
+    pub range_search: Option<tune::RangeSearch>,
     pub samples: usize,
     pub holes: usize,
 }
@@ -175,6 +210,16 @@ impl Field {
         levels: &[f64],
         options: &ModelOptions,
     ) -> Result<Field, FieldError> {
+        Field::fit_cancellable(samples, levels, options, &|| false)
+    }
+
+    /// [`Field::fit`], stopping with [`FieldError::Cancelled`] when `cancelled` turns true.
+    pub fn fit_cancellable(
+        samples: &Samples,
+        levels: &[f64],
+        options: &ModelOptions,
+        cancelled: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Field, FieldError> {
         if samples.values.is_empty() {
             return Err(FieldError::NoSamples);
         }
@@ -198,7 +243,7 @@ impl Field {
         let level = levels.iter().copied().fold(f64::INFINITY, f64::min);
         let cuts = estimate::intercepts(&t, &holes, transform.apply(level), spacing.sample);
         let geometry = ore_geometry(&t, &cuts, transform.apply(level), spacing);
-        let (orientation, ranges, orientation_source, range_source) =
+        let (orientation, ranges, orientation_source, mut range_source) =
             shape(options, geometry.as_ref(), spacing);
         let (transform, t, sill, nugget) = match contacts_cap(&t, ranges, options) {
             Some(cap) => {
@@ -213,13 +258,38 @@ impl Field {
             }
             None => (transform, t, sill, nugget),
         };
-        let ellipsoid = Ellipsoid::new(orientation, ranges);
-        let samples_unit: Vec<DVec3> = t.points.iter().map(|p| ellipsoid.to_unit(*p)).collect();
         let nugget_share = if sill > 0.0 {
             (nugget / sill).clamp(0.0, 0.99)
         } else {
             0.0
         };
+        let search = options.ranges_from == RangesFrom::CrossValidation;
+        let range_search = match range_source {
+            Source::Intercepts if search => tune::search(
+                &tune::Problem {
+                    samples: &t,
+                    level: transform.apply(level),
+                    orientation,
+                    ranges,
+                    min_plane: estimate::RANGE_HOLE_SPACINGS.0 * spacing.hole,
+                    kernel,
+                    nugget_share,
+                    neighbourhood: options.neighbourhood,
+                },
+                cancelled,
+            )
+            .map_err(|tune::Cancelled| FieldError::Cancelled)?,
+            _ => None,
+        };
+        let ranges = match &range_search {
+            Some(s) if s.chosen != 0 => {
+                range_source = Source::CrossValidation;
+                s.candidates[s.chosen].ranges
+            }
+            _ => ranges,
+        };
+        let ellipsoid = Ellipsoid::new(orientation, ranges);
+        let samples_unit: Vec<DVec3> = t.points.iter().map(|p| ellipsoid.to_unit(*p)).collect();
         let kriging = kriging::BlockKriging::new(
             kernel,
             nugget_share,
@@ -252,6 +322,8 @@ impl Field {
             neighbourhood: options.neighbourhood,
             spacing,
             intercepts: geometry,
+            ranges_from: options.ranges_from,
+            range_search,
             samples: t.values.len(),
             holes: holes.len(),
         };
