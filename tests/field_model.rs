@@ -303,7 +303,7 @@ fn the_default_model_recovers_a_dipping_lens_from_noisy_holes() {
         "{map:?}"
     );
     // The ranges are the intercepts' unless cross-validation is asked for.
-    assert!(m.params.range_search.is_none());
+    assert!(m.params.shape_search.is_none());
     assert_eq!(m.params.sources.ranges, wellmesh::field::Source::Intercepts);
 
     // Across the thin lens (minor range about 10 m) the refinement stops at the first step
@@ -492,19 +492,19 @@ fn model_options_are_refused_with_the_linear_interpolant_and_named() {
         ..ContourOptions::default()
     };
     assert_eq!(flag.check().unwrap_err().field, "flag_field");
-    let ranges_from = ContourOptions {
+    let shape_from = ContourOptions {
         thresholds: vec![CUT],
-        ranges_from: Some("variogram".into()),
+        shape_from: Some("variogram".into()),
         ..ContourOptions::default()
     };
-    assert_eq!(ranges_from.check().unwrap_err().field, "ranges_from");
+    assert_eq!(shape_from.check().unwrap_err().field, "shape_from");
     let linear = ContourOptions {
         thresholds: vec![CUT],
         interpolant: Some("linear".into()),
-        ranges_from: Some("cross-validation".into()),
+        shape_from: Some("cross-validation".into()),
         ..ContourOptions::default()
     };
-    assert_eq!(linear.check().unwrap_err().field, "ranges_from");
+    assert_eq!(linear.check().unwrap_err().field, "shape_from");
 }
 
 /// Five parallel slabs 6 m thick dipping 70 degrees east, side by side 100 m apart at the
@@ -573,7 +573,7 @@ fn the_variogram_map_finds_the_plane_of_staggered_steep_lenses() {
 
 /// Tom Zone's lenses (`sample_wells/tom_zone`): one orientation for a field of lenses, and
 /// ranges bounded at six hole spacings with the minor one lens's thickness, predict held-out
-/// holes worse than a less anisotropic model; `--ranges-from cross-validation` finds one,
+/// holes worse than a less anisotropic model; `--shape-from cross-validation` finds one,
 /// and the summary records every candidate.
 #[test]
 fn cross_validation_widens_the_minor_range_on_tom_zones_field_of_lenses() {
@@ -594,12 +594,12 @@ fn cross_validation_widens_the_minor_range_on_tom_zones_field_of_lenses() {
         samples,
         ContourOptions {
             thresholds: vec![CUT],
-            ranges_from: Some("cross-validation".into()),
+            shape_from: Some("cross-validation".into()),
             ..ContourOptions::default()
         },
     );
     let m = model.summary.model.as_ref().expect("a model");
-    let search = m.params.range_search.as_ref().expect("searched");
+    let search = m.params.shape_search.as_ref().expect("searched");
     let first = search.candidates[0];
     let chosen = search.candidates[search.chosen];
     assert!(search.chosen > 0, "{search:?}");

@@ -92,8 +92,9 @@ pub struct MultipartInputs {
     transform: Option<String>,
     /// `distance` (default) or `indicator`: how 0/1 flags are modelled.
     flag_field: Option<String>,
-    /// `intercepts` (default) or `cross-validation`: where ranges not given come from.
-    ranges_from: Option<String>,
+    /// `rules` (default) or `cross-validation`: how the orientation and ranges not given
+    /// are found.
+    shape_from: Option<String>,
     top_cut: Option<f64>,
     /// Finest infill step along the major axis.
     resolution: Option<f64>,
@@ -426,7 +427,7 @@ const TEXT_FIELDS: [&str; 14] = [
     "interpolant",
     "transform",
     "flag_field",
-    "ranges_from",
+    "shape_from",
     "samples_csv",
     "collars_csv",
     "surveys_csv",

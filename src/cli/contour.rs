@@ -156,13 +156,15 @@ pub struct Args {
     #[arg(long, value_name = "NAME", help_heading = MODEL)]
     pub flag_field: Option<String>,
 
-    /// Where ranges not given by --ranges come from: intercepts (default: the extent and
-    /// thickness of the runs of ore down the holes, bounded at 1.5-6 hole spacings) or
-    /// cross-validation (those ranges scaled, across the ore by up to 4 and in its plane
-    /// down to 0.4, keeping the scale whose model puts held-out holes' samples on the right
-    /// side of the threshold most often; slower, recorded in the summary's range_search).
+    /// How the orientation and ranges not given are found: rules (default: the extent,
+    /// thickness and plane of the runs of ore down the holes, the plane checked by a
+    /// variogram map) or cross-validation (the rules' model beside other planes of the map
+    /// and ranges scaled across the ore by up to 4 and in its plane down to 0.4; the one
+    /// whose model puts the samples of held-out holes on the right side of the threshold
+    /// most often is kept. For fields of many lenses; about twice as slow; every candidate
+    /// is in the summary's shape_search).
     #[arg(long, value_name = "NAME", help_heading = MODEL)]
-    pub ranges_from: Option<String>,
+    pub shape_from: Option<String>,
 
     /// Cap values above this before the fit (a top-cut of outliers).
     #[arg(long, value_name = "VALUE", help_heading = MODEL)]
@@ -247,7 +249,7 @@ impl Args {
             spheroidal_order: self.spheroidal_order,
             transform: self.transform.clone(),
             flag_field: self.flag_field.clone(),
-            ranges_from: self.ranges_from.clone(),
+            shape_from: self.shape_from.clone(),
             top_cut: self.top_cut,
             resolution: self.resolution,
             max_samples: self.max_samples,

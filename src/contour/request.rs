@@ -11,9 +11,7 @@ use glam::{DMat3, DVec3};
 use serde::Serialize;
 
 use crate::dmt::{self, Method, Placement};
-use crate::field::{
-    FlagField, ModelOptions, Neighbourhood, Orientation, RangesFrom, TransformKind,
-};
+use crate::field::{FlagField, ModelOptions, Neighbourhood, Orientation, ShapeFrom, TransformKind};
 use crate::wells::SampleSet;
 
 /// How the values between the samples are made.
@@ -353,8 +351,9 @@ pub struct ContourOptions {
     pub transform: Option<String>,
     /// How 0/1 flags are modelled: `distance` (default) or `indicator`.
     pub flag_field: Option<String>,
-    /// Where ranges not given come from: `intercepts` (default) or `cross-validation`.
-    pub ranges_from: Option<String>,
+    /// How the orientation and ranges not given are found: `rules` (default) or
+    /// `cross-validation`.
+    pub shape_from: Option<String>,
     pub top_cut: Option<f64>,
     /// Finest infill step along the major axis, input units.
     pub resolution: Option<f64>,
@@ -503,7 +502,7 @@ impl ContourOptions {
             ("spheroidal_order", self.spheroidal_order.is_some()),
             ("transform", self.transform.is_some()),
             ("flag_field", self.flag_field.is_some()),
-            ("ranges_from", self.ranges_from.is_some()),
+            ("shape_from", self.shape_from.is_some()),
             ("top_cut", self.top_cut.is_some()),
             ("resolution", self.resolution.is_some()),
             ("max_samples", self.max_samples.is_some()),
@@ -578,11 +577,11 @@ impl ContourOptions {
                 .parse::<FlagField>()
                 .map_err(|e| OptionError::new("flag_field", e))?,
         };
-        let ranges_from = match self.ranges_from.as_deref() {
-            None => RangesFrom::default(),
+        let shape_from = match self.shape_from.as_deref() {
+            None => ShapeFrom::default(),
             Some(f) => f
-                .parse::<RangesFrom>()
-                .map_err(|e| OptionError::new("ranges_from", e))?,
+                .parse::<ShapeFrom>()
+                .map_err(|e| OptionError::new("shape_from", e))?,
         };
         let top_cut = match self.top_cut {
             Some(c) if !c.is_finite() => {
@@ -615,7 +614,7 @@ impl ContourOptions {
             resolution,
             neighbourhood,
             flag_field,
-            ranges_from,
+            shape_from,
         })
     }
 

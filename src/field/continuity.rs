@@ -126,16 +126,43 @@ impl DirectionBins {
         (count >= MIN_PAIRS).then(|| sum / count)
     }
 
+    /// Up to `count` planes of low semivariogram, each the least by degrees around a
+    /// coarse plane (as in [`DirectionBins::best`]) whose normal is at least `separation`
+    /// degrees from those of the planes already taken, the least first: the alternatives
+    /// a cross-validation can choose among.
+    pub fn minima(&self, count: usize, separation: f64) -> Vec<Continuity> {
+        let mut coarse: Vec<(f64, f64, f64)> = coarse_planes()
+            .filter_map(|(dd, dip)| self.score(normal(dd, dip)).map(|g| (g, dd, dip)))
+            .collect();
+        coarse.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let cos = separation.to_radians().cos();
+        let apart =
+            |taken: &[Continuity], n: DVec3| taken.iter().all(|c| c.normal.dot(n).abs() < cos);
+        let mut out: Vec<Continuity> = Vec::new();
+        for (_, dd0, dip0) in coarse {
+            if out.len() == count {
+                break;
+            }
+            if !apart(&out, normal(dd0, dip0)) {
+                continue;
+            }
+            if let Some((gamma, dd, dip)) = self.least(fine_planes(dd0, dip0), None)
+                && apart(&out, normal(dd, dip))
+            {
+                out.push(Continuity {
+                    normal: normal(dd, dip),
+                    gamma,
+                });
+            }
+        }
+        out
+    }
+
     /// The plane of least semivariogram: normals every 5 degrees of dip and 10 of dip
     /// direction, then every degree around the best.
     pub fn best(&self) -> Option<Continuity> {
-        let coarse =
-            (0..=18).flat_map(|d| (0..36).map(move |a| (f64::from(a) * 10.0, f64::from(d) * 5.0)));
-        let (_, dd0, dip0) = self.least(coarse, None)?;
-        let fine = (-6..=6).flat_map(|d| {
-            (-12..=12).map(move |a| (dd0 + f64::from(a), (dip0 + f64::from(d)).clamp(0.0, 90.0)))
-        });
-        let best = self.least(fine, None);
+        let (_, dd0, dip0) = self.least(coarse_planes(), None)?;
+        let best = self.least(fine_planes(dd0, dip0), None);
         best.map(|(gamma, dd, dip)| Continuity {
             normal: normal(dd, dip),
             gamma,
@@ -162,6 +189,18 @@ impl DirectionBins {
 }
 
 /// The upward normal of the plane dipping `dip` degrees toward `dip_direction`.
+/// Planes every 10 degrees of dip direction and 5 of dip.
+fn coarse_planes() -> impl Iterator<Item = (f64, f64)> {
+    (0..=18).flat_map(|d| (0..36).map(move |a| (f64::from(a) * 10.0, f64::from(d) * 5.0)))
+}
+
+/// Planes every degree within 12 of dip direction and 6 of dip around `(dd0, dip0)`.
+fn fine_planes(dd0: f64, dip0: f64) -> impl Iterator<Item = (f64, f64)> {
+    (-6..=6).flat_map(move |d| {
+        (-12..=12).map(move |a| (dd0 + f64::from(a), (dip0 + f64::from(d)).clamp(0.0, 90.0)))
+    })
+}
+
 fn normal(dip_direction: f64, dip: f64) -> DVec3 {
     let (dd, dp) = (dip_direction.to_radians(), dip.to_radians());
     DVec3::new(dd.sin() * dp.sin(), dd.cos() * dp.sin(), dp.cos())
@@ -212,5 +251,21 @@ mod tests {
         assert!(angle < 2.5, "{best:?} is {angle:.1} degrees off");
         let flat = bins.score(DVec3::Z).unwrap();
         assert!(best.gamma < 0.5 * flat, "{best:?} against flat {flat}");
+
+        // The alternatives: the best first, then planes at least 15 degrees apart, each
+        // of them scoring what the map says of it.
+        let minima = bins.minima(4, 15.0);
+        assert_eq!(minima.len(), 4);
+        assert_eq!(minima[0], best);
+        for (i, a) in minima.iter().enumerate() {
+            assert_eq!(bins.score(a.normal), Some(a.gamma));
+            for b in &minima[..i] {
+                let apart = a.normal.dot(b.normal).abs().min(1.0).acos().to_degrees();
+                assert!(
+                    apart >= 15.0 - 1e-9,
+                    "{a:?} and {b:?} {apart:.1} degrees apart"
+                );
+            }
+        }
     }
 }

@@ -51,30 +51,32 @@ pub struct ModelOptions {
     pub neighbourhood: Neighbourhood,
     /// How 0/1 values (flags, `--inside CODE`) are modelled.
     pub flag_field: FlagField,
-    /// Where the ranges come from when they are not given.
-    pub ranges_from: RangesFrom,
+    /// How the orientation and ranges are found when they are not given.
+    pub shape_from: ShapeFrom,
 }
 
-/// Where the ranges come from when a request does not give them.
+/// How the orientation and ranges are found when a request does not give them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 #[serde(rename_all = "kebab-case")]
-pub enum RangesFrom {
-    /// The intercepts' extent and thickness, bounded (docs/field.md).
+pub enum ShapeFrom {
+    /// The rules of docs/field.md: the intercepts' geometry, the plane checked by the
+    /// variogram map.
     #[default]
-    Intercepts,
-    /// The intercepts' ranges scaled by leave-holes-out cross-validation (`tune.rs`).
+    Rules,
+    /// The rules' model, then other planes and scaled ranges, kept when they predict
+    /// held-out holes better (`tune.rs`).
     CrossValidation,
 }
 
-impl std::str::FromStr for RangesFrom {
+impl std::str::FromStr for ShapeFrom {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s.to_ascii_lowercase().as_str() {
-            "intercepts" => Ok(RangesFrom::Intercepts),
-            "cross-validation" => Ok(RangesFrom::CrossValidation),
+            "rules" => Ok(ShapeFrom::Rules),
+            "cross-validation" => Ok(ShapeFrom::CrossValidation),
             other => Err(format!(
-                "unknown source of ranges {other:?}: expected intercepts or cross-validation"
+                "unknown way to find the shape {other:?}: expected rules or cross-validation"
             )),
         }
     }
@@ -119,7 +121,7 @@ impl Default for ModelOptions {
             resolution: None,
             neighbourhood: Neighbourhood::default(),
             flag_field: FlagField::default(),
-            ranges_from: RangesFrom::default(),
+            shape_from: ShapeFrom::default(),
         }
     }
 }
@@ -165,10 +167,10 @@ pub struct FieldParams {
     pub spacing: Spacing,
     /// What the intercepts said, when enough holes cut the ore (before the bounds).
     pub intercepts: Option<InterceptGeometry>,
-    /// Where the ranges were asked to come from when not given (the option).
-    pub ranges_from: RangesFrom,
-    /// The cross-validated candidates of the ranges, when they were searched.
-    pub range_search: Option<tune::RangeSearch>,
+    /// How the orientation and ranges were to be found when not given (the option).
+    pub shape_from: ShapeFrom,
+    /// The cross-validated candidates (planes and ranges), when they were searched.
+    pub shape_search: Option<tune::ShapeSearch>,
     pub samples: usize,
     pub holes: usize,
 }
@@ -243,8 +245,22 @@ impl Field {
         let level = levels.iter().copied().fold(f64::INFINITY, f64::min);
         let cuts = estimate::intercepts(&t, &holes, transform.apply(level), spacing.sample);
         let geometry = ore_geometry(&t, &cuts, transform.apply(level), spacing);
-        let (orientation, ranges, orientation_source, mut range_source) =
+        let (orientation, ranges, mut orientation_source, mut range_source) =
             shape(options, geometry.as_ref(), spacing);
+        let search =
+            options.shape_from == ShapeFrom::CrossValidation && range_source == Source::Intercepts;
+        let planes = if search {
+            plane_candidates(
+                &t,
+                &cuts,
+                transform.apply(level),
+                spacing,
+                orientation,
+                options,
+            )
+        } else {
+            Vec::new()
+        };
         let (transform, t, sill, nugget) = match contacts_cap(&t, ranges, options) {
             Some(cap) => {
                 let level = transform.apply(level);
@@ -263,30 +279,33 @@ impl Field {
         } else {
             0.0
         };
-        let search = options.ranges_from == RangesFrom::CrossValidation;
-        let range_search = match range_source {
-            Source::Intercepts if search => tune::search(
-                &tune::Problem {
-                    samples: &t,
-                    level: transform.apply(level),
-                    orientation,
-                    ranges,
-                    min_plane: estimate::RANGE_HOLE_SPACINGS.0 * spacing.hole,
-                    kernel,
-                    nugget_share,
-                    neighbourhood: options.neighbourhood,
-                },
-                cancelled,
-            )
-            .map_err(|tune::Cancelled| FieldError::Cancelled)?,
-            _ => None,
+        let shape_search = if search {
+            let problem = tune::Problem {
+                samples: &t,
+                level: transform.apply(level),
+                orientations: planes,
+                ranges,
+                min_plane: estimate::RANGE_HOLE_SPACINGS.0 * spacing.hole,
+                kernel,
+                nugget_share,
+                neighbourhood: options.neighbourhood,
+            };
+            tune::search(&problem, cancelled).map_err(|tune::Cancelled| FieldError::Cancelled)?
+        } else {
+            None
         };
-        let ranges = match &range_search {
+        let (orientation, ranges) = match &shape_search {
             Some(s) if s.chosen != 0 => {
-                range_source = Source::CrossValidation;
-                s.candidates[s.chosen].ranges
+                let c = s.candidates[s.chosen];
+                if c.orientation != orientation {
+                    orientation_source = Source::CrossValidation;
+                }
+                if c.ranges != ranges {
+                    range_source = Source::CrossValidation;
+                }
+                (c.orientation, c.ranges)
             }
-            _ => ranges,
+            _ => (orientation, ranges),
         };
         let ellipsoid = Ellipsoid::new(orientation, ranges);
         let samples_unit: Vec<DVec3> = t.points.iter().map(|p| ellipsoid.to_unit(*p)).collect();
@@ -322,8 +341,8 @@ impl Field {
             neighbourhood: options.neighbourhood,
             spacing,
             intercepts: geometry,
-            ranges_from: options.ranges_from,
-            range_search,
+            shape_from: options.shape_from,
+            shape_search,
             samples: t.values.len(),
             holes: holes.len(),
         };
@@ -398,6 +417,42 @@ fn ore_geometry(
         used,
     });
     Some(geometry)
+}
+
+/// The planes cross-validation chooses among: the run's own `orientation` first, then
+/// (unless the orientation is given) the intercepts' plane and the variogram map's
+/// [`tune::MAP_PLANES`] lowest minima, each with its major axis from the intercepts and
+/// none within [`tune::PLANE_SEPARATION`] of one before it.
+fn plane_candidates(
+    t: &Samples,
+    cuts: &[estimate::Intercept],
+    level: f64,
+    spacing: Spacing,
+    orientation: Orientation,
+    options: &ModelOptions,
+) -> Vec<Orientation> {
+    let mut out = vec![orientation];
+    if options.orientation.is_some() {
+        return out;
+    }
+    let mut normals: Vec<DVec3> = Vec::new();
+    if let Some(g) = estimate::intercept_geometry(cuts, None) {
+        normals.push(g.orientation.axes()[2]);
+    }
+    if let Some(map) = continuity::DirectionBins::new(t, level, spacing.hole) {
+        let minima = map.minima(tune::MAP_PLANES, tune::PLANE_SEPARATION);
+        normals.extend(minima.iter().map(|c| c.normal));
+    }
+    let cos = tune::PLANE_SEPARATION.to_radians().cos();
+    for n in normals {
+        if out.iter().any(|o| o.axes()[2].dot(n).abs() >= cos) {
+            continue;
+        }
+        if let Some(g) = estimate::intercept_geometry(cuts, Some(n)) {
+            out.push(g.orientation);
+        }
+    }
+    out
 }
 
 /// The cap of the signed distances when a flag is modelled by its contacts

@@ -1,18 +1,21 @@
-//! Ranges chosen by cross-validation over whole holes.
+//! The orientation and ranges chosen by cross-validation over whole holes
+//! (`--shape-from cross-validation`).
 //!
 //! The intercepts give the ore's extent and thickness, which is the right scale for one
 //! lens drilled closely; on a field of many small lenses (Tom Zone) the extent is the
 //! field's, bounded at six hole spacings, and a minor range of one lens's thickness makes
-//! the model so anisotropic that a few degrees of error in the plane miss the next hole.
-//! [`search`] scales the intercepts' ranges — in the plane by [`PLANE_SCALES`], across it
-//! by [`MINOR_SCALES`] — and keeps the candidate whose field puts held-out holes' samples
-//! on the right side of the level most often (balanced accuracy: the mean of the ore
-//! samples' share inside and the waste samples' share outside). Hole `h` (its rank among
-//! the holes, by id) is held out in fold `h % FOLDS`, and the model that predicts it is
-//! the same block kriging as the run's, fitted on the other holes.
+//! the model so anisotropic that a few degrees of error in its single plane miss the next
+//! hole; and the variogram map's plane can swing with the holes it is given. [`search`]
+//! scores the run's own plane beside the other planes of [`Problem::orientations`] at the
+//! intercepts' ranges, then with the best plane scales the minor range by [`MINOR_SCALES`]
+//! and the in-plane ranges by [`PLANE_SCALES`], and keeps the candidate whose field puts
+//! held-out holes' samples on the right side of the level most often (balanced accuracy:
+//! the mean of the ore samples' share inside and the waste samples' share outside). Hole
+//! `h` (its rank among the holes, by id) is held out in fold `h % FOLDS`, and the model
+//! that predicts it is the same block kriging as the run's, fitted on the other holes.
 //!
 //! Invariants: a held-out sample never takes part in its own prediction (its whole hole is
-//! left out); the intercepts' ranges are kept unless a candidate beats them by more than
+//! left out); the run's own model is kept unless a candidate beats it by more than
 //! [`MARGIN`], so noise in the score does not move a model that is already right.
 
 use glam::DVec3;
@@ -30,6 +33,10 @@ pub const FOLDS: usize = 5;
 pub const MINOR_SCALES: [f64; 5] = [1.0, 1.5, 2.0, 3.0, 4.0];
 /// Factors on the intercepts' major and semi-major ranges, tried next with the best minor.
 pub const PLANE_SCALES: [f64; 4] = [0.8, 0.65, 0.5, 0.4];
+/// Planes from the variogram map tried beside the run's own and the intercepts'.
+pub const MAP_PLANES: usize = 4;
+/// Planes whose normals are closer than this (degrees) count as one.
+pub const PLANE_SEPARATION: f64 = 15.0;
 /// A candidate replaces the intercepts' ranges only when its balanced accuracy is higher
 /// by more than this.
 pub const MARGIN: f64 = 0.01;
@@ -40,27 +47,28 @@ pub const MIN_ORE_HOLES: usize = 2 * FOLDS;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Cancelled;
 
-/// One candidate's ranges and score.
+/// One candidate's orientation, ranges and score.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct RangeCandidate {
+pub struct ShapeCandidate {
+    pub orientation: Orientation,
     /// Major, semi-major, minor, input units.
     pub ranges: [f64; 3],
     /// The mean of the held-out ore samples' share inside and waste samples' share outside.
     pub balanced_accuracy: f64,
 }
 
-/// The search's candidates, in the order tried (the intercepts' ranges first), and the one
+/// The search's candidates, in the order tried (the run's own model first), and the one
 /// kept.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct RangeSearch {
+pub struct ShapeSearch {
     pub folds: usize,
     /// Held-out samples scored per candidate (every sample once).
     pub samples: usize,
     /// Of them, those the model was evaluated at: the others lie farther than every
     /// candidate's range from the ore of the other holes and count as outside.
     pub evaluated: usize,
-    pub candidates: Vec<RangeCandidate>,
-    /// Index into `candidates` of the ranges used.
+    pub candidates: Vec<ShapeCandidate>,
+    /// Index into `candidates` of the orientation and ranges used.
     pub chosen: usize,
 }
 
@@ -70,7 +78,9 @@ pub struct Problem<'a> {
     pub samples: &'a Samples,
     /// The level in the field's values (ore: at or above it).
     pub level: f64,
-    pub orientation: Orientation,
+    /// The planes to try, the run's own first (the others: the variogram map's other
+    /// minima and the intercepts' plane, `mod.rs`).
+    pub orientations: Vec<Orientation>,
     /// The intercepts' ranges.
     pub ranges: [f64; 3],
     /// The smallest in-plane range allowed (input units).
@@ -89,25 +99,43 @@ struct Fold {
     far: [usize; 4],
 }
 
-/// Searches the candidates — the minor range first, then the in-plane ranges with the
-/// best minor; `Ok(None)` when too few holes cut the ore for the folds to mean anything,
-/// `Err(Cancelled)` when cancelled.
+/// Searches the candidates — the planes at the intercepts' ranges first, then with the
+/// best plane the minor range, then the in-plane ranges with the best minor; `Ok(None)`
+/// when too few holes cut the ore for the folds to mean anything, `Err(Cancelled)` when
+/// cancelled.
 pub fn search(
     problem: &Problem,
     cancelled: &(dyn Fn() -> bool + Sync),
-) -> Result<Option<RangeSearch>, Cancelled> {
+) -> Result<Option<ShapeSearch>, Cancelled> {
     let t = problem.samples;
     let Some(fold_of) = folds(t, problem.level) else {
         return Ok(None);
     };
-    let folds = split(problem, &fold_of);
-    let mut candidates: Vec<RangeCandidate> = Vec::new();
-    let try_ranges = |ranges: [f64; 3], candidates: &mut Vec<RangeCandidate>| {
-        if candidates.iter().any(|c| same(&c.ranges, &ranges)) {
+    let mut candidates: Vec<ShapeCandidate> = Vec::new();
+    let mut splits: Vec<Vec<Fold>> = Vec::new();
+    for &orientation in &problem.orientations {
+        let folds = split(problem, orientation, &fold_of);
+        let ranges = problem.ranges;
+        let balanced = score(problem, orientation, ranges, &folds, cancelled).ok_or(Cancelled)?;
+        candidates.push(ShapeCandidate {
+            orientation,
+            ranges,
+            balanced_accuracy: balanced,
+        });
+        splits.push(folds);
+    }
+    let plane = kept(&candidates);
+    let (orientation, folds) = (candidates[plane].orientation, &splits[plane]);
+    let try_ranges = |ranges: [f64; 3], candidates: &mut Vec<ShapeCandidate>| {
+        let seen = candidates
+            .iter()
+            .any(|c| c.orientation == orientation && same(&c.ranges, &ranges));
+        if seen {
             return Ok(());
         }
-        let balanced = score(problem, ranges, &folds, cancelled).ok_or(Cancelled)?;
-        candidates.push(RangeCandidate {
+        let balanced = score(problem, orientation, ranges, folds, cancelled).ok_or(Cancelled)?;
+        candidates.push(ShapeCandidate {
+            orientation,
             ranges,
             balanced_accuracy: balanced,
         });
@@ -116,37 +144,47 @@ pub fn search(
     for across in MINOR_SCALES {
         try_ranges(scaled(problem, 1.0, across), &mut candidates)?;
     }
-    let minor = best(&candidates).ranges[2] / problem.ranges[2];
-    for plane in PLANE_SCALES {
-        try_ranges(scaled(problem, plane, minor), &mut candidates)?;
+    let minor = best_with(&candidates, orientation).ranges[2] / problem.ranges[2];
+    for in_plane in PLANE_SCALES {
+        try_ranges(scaled(problem, in_plane, minor), &mut candidates)?;
     }
-    let top = candidates
-        .iter()
-        .position(|c| c == best(&candidates))
-        .unwrap_or(0);
-    let chosen = if candidates[top].balanced_accuracy > candidates[0].balanced_accuracy + MARGIN {
-        top
-    } else {
-        0
-    };
-    Ok(Some(RangeSearch {
+    let chosen = kept(&candidates);
+    Ok(Some(ShapeSearch {
         folds: FOLDS,
         samples: t.values.len(),
-        evaluated: folds.iter().map(|f| f.evaluate.len()).sum(),
+        evaluated: splits[plane].iter().map(|f| f.evaluate.len()).sum(),
         candidates,
         chosen,
     }))
 }
 
-/// The candidate with the highest score, the first of equals.
-fn best(candidates: &[RangeCandidate]) -> &RangeCandidate {
-    candidates.iter().fold(&candidates[0], |a, c| {
-        if c.balanced_accuracy > a.balanced_accuracy {
-            c
+/// The index of the best candidate if it beats the first (the run's own model) by more
+/// than [`MARGIN`], else 0.
+fn kept(candidates: &[ShapeCandidate]) -> usize {
+    let top = (0..candidates.len()).fold(0, |a, i| {
+        if candidates[i].balanced_accuracy > candidates[a].balanced_accuracy {
+            i
         } else {
             a
         }
-    })
+    });
+    if candidates[top].balanced_accuracy > candidates[0].balanced_accuracy + MARGIN {
+        top
+    } else {
+        0
+    }
+}
+
+/// The candidate with `orientation` with the highest score, the first of equals.
+fn best_with(candidates: &[ShapeCandidate], orientation: Orientation) -> ShapeCandidate {
+    candidates
+        .iter()
+        .filter(|c| c.orientation == orientation)
+        .fold(None, |a: Option<ShapeCandidate>, c| match a {
+            Some(a) if a.balanced_accuracy >= c.balanced_accuracy => Some(a),
+            _ => Some(*c),
+        })
+        .unwrap_or(candidates[0])
 }
 
 fn same(a: &[f64; 3], b: &[f64; 3]) -> bool {
@@ -202,9 +240,9 @@ fn folds(t: &Samples, level: f64) -> Option<Vec<usize>> {
 /// enclosing ellipsoid from every ore sample of the training holes is beyond the reach of
 /// the ore in every candidate: the model there is the local mean, below the level, so it
 /// counts as outside without being evaluated (most waste down long holes).
-fn split(problem: &Problem, fold_of: &[usize]) -> Vec<Fold> {
+fn split(problem: &Problem, orientation: Orientation, fold_of: &[usize]) -> Vec<Fold> {
     let t = problem.samples;
-    let ellipsoid = Ellipsoid::new(problem.orientation, enclosing(problem));
+    let ellipsoid = Ellipsoid::new(orientation, enclosing(problem));
     let unit: Vec<DVec3> = t.points.iter().map(|p| ellipsoid.to_unit(*p)).collect();
     (0..FOLDS)
         .map(|fold| {
@@ -255,12 +293,13 @@ fn tally(sides: &mut [usize; 4], ore: bool, inside: bool) {
 /// The balanced accuracy of held-out samples with `ranges`; `None` if cancelled.
 fn score(
     problem: &Problem,
+    orientation: Orientation,
     ranges: [f64; 3],
     folds: &[Fold],
     cancelled: &(dyn Fn() -> bool + Sync),
 ) -> Option<f64> {
     let t = problem.samples;
-    let ellipsoid = Ellipsoid::new(problem.orientation, ranges);
+    let ellipsoid = Ellipsoid::new(orientation, ranges);
     let unit: Vec<DVec3> = t.points.iter().map(|p| ellipsoid.to_unit(*p)).collect();
     let mut sides = [0usize; 4];
     for fold in folds {
@@ -302,7 +341,7 @@ mod tests {
         Problem {
             samples,
             level: 0.5,
-            orientation: Orientation::FLAT,
+            orientations: vec![Orientation::FLAT],
             ranges: [100.0, 80.0, 5.0],
             min_plane: 60.0,
             kernel: Spheroidal::new(7).expect("order 7"),

@@ -147,7 +147,7 @@ const TITLES: &[(&str, &str)] = &[
     ("spheroidal_order", "Spheroidal order"),
     ("transform", "Value transform"),
     ("flag_field", "Flag field"),
-    ("ranges_from", "Source of the ranges"),
+    ("shape_from", "How the shape is found"),
     ("top_cut", "Top-cut"),
     ("resolution", "Infill resolution"),
     ("max_samples", "Samples per kriging block"),

@@ -138,10 +138,11 @@ pub struct ProcessInputs {
     /// down each hole, contoured at zero) or `indicator` (the kriged 0s and 1s).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flag_field: Option<String>,
-    /// Where ranges not given come from: `intercepts` (default) or `cross-validation`
-    /// (the intercepts' ranges scaled by leave-holes-out cross-validation).
+    /// How the orientation and ranges not given are found: `rules` (default) or
+    /// `cross-validation` (planes and scaled ranges chosen by leave-holes-out
+    /// cross-validation).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub ranges_from: Option<String>,
+    pub shape_from: Option<String>,
     /// Values above this are capped to it before the fit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub top_cut: Option<f64>,
@@ -316,7 +317,7 @@ impl ProcessInputs {
             spheroidal_order: self.spheroidal_order,
             transform: self.transform.clone(),
             flag_field: self.flag_field.clone(),
-            ranges_from: self.ranges_from.clone(),
+            shape_from: self.shape_from.clone(),
             top_cut: self.top_cut,
             resolution: self.resolution,
             max_samples: self.max_samples,
