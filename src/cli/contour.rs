@@ -161,8 +161,8 @@ pub struct Args {
     /// variogram map) or cross-validation (the rules' model beside other planes of the map
     /// and ranges scaled across the ore by up to 4 and in its plane down to 0.4; the one
     /// whose model puts the samples of held-out holes on the right side of the threshold
-    /// most often is kept. For fields of many lenses; about twice as slow; every candidate
-    /// is in the summary's shape_search).
+    /// most often is kept. For fields of many lenses; two to four times as slow; every
+    /// candidate is in the summary's shape_search).
     #[arg(long, value_name = "NAME", help_heading = MODEL)]
     pub shape_from: Option<String>,
 
