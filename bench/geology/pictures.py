@@ -3,7 +3,7 @@ viewpoint, so that before/after pictures of the same data can be compared.
 
 Usage:
   python bench/geology/pictures.py MODEL.glb OUT.png [--from-bearing 200] [--elevation 30]
-      [--frame FRAME.glb] [--traces] [--title TEXT] [--size 1200x900]
+      [--frame FRAME.glb] [--traces] [--title TEXT] [--size 1200x900] [--palette N]
 
 The camera is orthographic, looking at the centre of the frame box from the compass
 bearing --from-bearing (degrees clockwise from north: 200 = from the south-south-west) and
@@ -13,7 +13,9 @@ each axis) of --frame (default: MODEL itself), grown by 5 %; draw the "after" pi
 --frame BEFORE.glb and both share one framing. Bodies are flat-shaded (two-sided Lambert,
 a light from the camera's upper left), one colour per body, all triangles depth-sorted
 together; --traces draws the drill holes in grey.
-Matplotlib only (Agg): no display, no GPU.
+--palette N stores the PNG with N colours (Pillow's median cut, no dithering): about a
+third of the bytes, for pictures kept in the repository's docs.
+Matplotlib only (Agg; Pillow, which it installs, for --palette): no display, no GPU.
 """
 
 from __future__ import annotations
@@ -118,6 +120,16 @@ def render(surface: Surface, out: Path, bearing: float, elevation: float, box,
     return dict(bodies=len(surface.bodies), triangles=triangles, centre=centre.tolist())
 
 
+def reduce_palette(path: Path, colours: int) -> None:
+    """Rewrites the PNG at `path` with `colours` colours (median cut, no dithering)."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        rgb = im.convert("RGB")
+    rgb.quantize(colors=colours, method=Image.Quantize.MEDIANCUT,
+                 dither=Image.Dither.NONE).save(path, optimize=True)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("model", type=Path)
@@ -128,12 +140,17 @@ def main(argv=None) -> int:
     ap.add_argument("--traces", action="store_true")
     ap.add_argument("--title")
     ap.add_argument("--size", default="1200x900")
+    ap.add_argument("--palette", type=int, help="store the PNG with this many colours (2-256)")
     args = ap.parse_args(argv)
+    if args.palette is not None and not 2 <= args.palette <= 256:
+        ap.error("--palette takes 2 to 256 colours")
     w, h = (int(t) for t in args.size.lower().split("x"))
     surface = load(args.model)
     box = frame_box(load(args.frame) if args.frame else surface)
     info = render(surface, args.out, args.from_bearing, args.elevation, box, args.traces,
                   args.title, (w, h))
+    if args.palette:
+        reduce_palette(args.out, args.palette)
     print(f"{args.out}: {info['bodies']} bodies, {info['triangles']} triangles")
     return 0
 

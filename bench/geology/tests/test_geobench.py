@@ -367,3 +367,17 @@ def test_tom_zone_samples_sit_where_wellmesh_puts_them(tmp_path):
     assert c["glb_points"] == c["our_points"] == 6686
     assert c["max_glb_to_ours_m"] < 1e-3 and c["max_ours_to_glb_m"] < 1e-3
     assert len(tz.holes_with_assays()) == 206
+
+
+def test_pictures_reduce_the_palette_and_keep_the_size(tmp_path):
+    from PIL import Image
+
+    import pictures
+
+    path = tmp_path / "many.png"
+    ramp = np.arange(64 * 64 * 3, dtype=np.uint32).reshape(64, 64, 3) * 37 % 256
+    Image.fromarray(ramp.astype(np.uint8), "RGB").save(path)
+    pictures.reduce_palette(path, 16)
+    with Image.open(path) as im:
+        assert im.mode == "P" and im.size == (64, 64)
+        assert len(im.getcolors()) <= 16
