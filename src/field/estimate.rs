@@ -29,6 +29,10 @@ pub const TRIM_MEDIANS: f64 = 3.0;
 /// The shortest minor range, in sample spacings.
 pub const MIN_MINOR_SAMPLES: f64 = 3.0;
 
+/// A hole crossing the ore's plane at less than this angle (degrees) runs along the ore:
+/// its intercept measures the ore's extent in the plane, not its thickness across it.
+pub const MIN_CROSSING_DEGREES: f64 = 20.0;
+
 /// The nugget is at most this share of the sill.
 pub const MAX_NUGGET_SHARE: f64 = 0.5;
 
@@ -260,8 +264,13 @@ pub struct InterceptGeometry {
     /// [`SPREAD_SIGMAS`] standard deviations of the intercept centres along the major and
     /// semi-major axes (before the hole-spacing bounds).
     pub spread: [f64; 2],
-    /// Median over holes of the true thickness of each hole's longest intercept.
+    /// Median over the holes that cross the plane at [`MIN_CROSSING_DEGREES`] or more of
+    /// the true thickness of each one's longest intercept; when fewer than
+    /// [`MIN_INTERCEPT_HOLES`] holes cross it so, the centres' spread across the plane
+    /// ([`SPREAD_SIGMAS`] standard deviations).
     pub thickness: f64,
+    /// The holes whose intercepts measured the thickness (0: from the centres' spread).
+    pub thickness_holes: usize,
     pub holes: usize,
     pub intercepts: usize,
     /// What the variogram map said, when it could be drawn (`continuity.rs`).
@@ -330,6 +339,7 @@ pub fn intercept_geometry(
         cov += DMat3::from_cols(d * d.x, d * d.y, d * d.z) * i.length;
     }
     cov *= 1.0 / total;
+    let unprojected = cov;
     if let Some(n) = plane {
         let n = n.normalize();
         let project = DMat3::IDENTITY - DMat3::from_cols(n * n.x, n * n.y, n * n.z);
@@ -347,12 +357,19 @@ pub fn intercept_geometry(
             *e = i;
         }
     }
-    let thickness = median(
-        longest
-            .values()
-            .map(|i| i.length * i.direction.dot(normal).abs().max(0.1))
-            .collect(),
-    )?;
+    let crossing = MIN_CROSSING_DEGREES.to_radians().sin();
+    let across: Vec<f64> = longest
+        .values()
+        .map(|i| (i.length, i.direction.dot(normal).abs()))
+        .filter(|&(_, cos)| cos >= crossing)
+        .map(|(length, cos)| length * cos)
+        .collect();
+    let thickness_holes = across.len();
+    let thickness = if thickness_holes >= MIN_INTERCEPT_HOLES {
+        median(across)?
+    } else {
+        SPREAD_SIGMAS * normal.dot(unprojected * normal).max(0.0).sqrt()
+    };
     Some(InterceptGeometry {
         orientation: Orientation::from_axes(vecs[0], normal),
         spread: [
@@ -360,6 +377,7 @@ pub fn intercept_geometry(
             SPREAD_SIGMAS * vals[1].sqrt(),
         ],
         thickness,
+        thickness_holes,
         holes: holes.len(),
         intercepts: intercepts.len(),
         map: None,
@@ -410,5 +428,50 @@ mod tests {
         assert!((g.spread[0] - 3.0 * 34.156).abs() < 0.1, "{:?}", g.spread);
         let (sill, nugget) = sill_and_nugget(&s, &holes);
         assert!(sill > 0.0 && nugget <= MAX_NUGGET_SHARE * sill);
+    }
+
+    /// Vertical holes on a 20 m grid through a block of ore 90 m deep. In a flat plane each
+    /// hole's intercept is the thickness; in a vertical plane
+    /// the holes run along the ore and their 90 m intercepts say nothing of its thickness
+    /// across: that is the centres' spread across the plane, not a tenth of an intercept.
+    #[test]
+    fn holes_along_the_plane_do_not_measure_its_thickness() {
+        let mut s = Samples::default();
+        for (hole, (ix, iy)) in (0..6).flat_map(|x| (0..6).map(move |y| (x, y))).enumerate() {
+            // The block's top steps down 3 m a row to the north, so its centres span a plane.
+            let top = 3.0 * f64::from(iy);
+            for k in 0..90 {
+                let z = -15.0 + f64::from(k) * 1.5;
+                s.points
+                    .push(DVec3::new(f64::from(ix) * 20.0, f64::from(iy) * 20.0, z));
+                s.values.push(if (top..top + 90.0).contains(&z) {
+                    1.0
+                } else {
+                    0.0
+                });
+                s.holes.push(hole as u32);
+            }
+        }
+        let holes = s.by_hole();
+        let sp = spacing(&s, &holes);
+        let cuts = intercepts(&s, &holes, 0.5, sp.sample);
+        let flat = intercept_geometry(&cuts, Some(DVec3::Z)).unwrap();
+        assert_eq!(flat.thickness_holes, 36);
+        assert!((flat.thickness - 90.0).abs() < 1e-9, "{}", flat.thickness);
+        let vertical = intercept_geometry(&cuts, Some(DVec3::X)).unwrap();
+        assert_eq!(vertical.thickness_holes, 0);
+        assert!(
+            (vertical.thickness - 3.0 * 34.156).abs() < 0.1,
+            "{}",
+            vertical.thickness
+        );
+        // Ten degrees off the vertical plane: still along it.
+        let tilted = DVec3::new(1.0, 0.0, 10f64.to_radians().tan()).normalize();
+        assert_eq!(
+            intercept_geometry(&cuts, Some(tilted))
+                .unwrap()
+                .thickness_holes,
+            0
+        );
     }
 }
