@@ -24,6 +24,8 @@ pub const TOLERANCE_DEGREES: f64 = 7.5;
 pub const BIN_DEGREES: f64 = 2.0;
 /// At most this many ore samples are paired (evenly spaced in input order beyond it).
 pub const MAX_ORE_SAMPLES: usize = 20_000;
+/// Pairs within this many degrees of a plane's normal measure continuity across it.
+pub const ACROSS_DEGREES: f64 = 30.0;
 /// A plane needs this many pairs to be scored.
 const MIN_PAIRS: f64 = 100.0;
 
@@ -119,6 +121,20 @@ impl DirectionBins {
         let (mut sum, mut count) = (0.0, 0.0);
         for ((c, s), n) in self.centres.iter().zip(&self.sum).zip(&self.count) {
             if *n > 0.0 && c.dot(normal).abs() < band {
+                sum += s;
+                count += n;
+            }
+        }
+        (count >= MIN_PAIRS).then(|| sum / count)
+    }
+
+    /// Mean semivariogram of the pairs within [`ACROSS_DEGREES`] of `normal`: continuity
+    /// across the plane normal to it; `None` with too few pairs.
+    pub fn across(&self, normal: DVec3) -> Option<f64> {
+        let cone = ACROSS_DEGREES.to_radians().cos();
+        let (mut sum, mut count) = (0.0, 0.0);
+        for ((c, s), n) in self.centres.iter().zip(&self.sum).zip(&self.count) {
+            if *n > 0.0 && c.dot(normal).abs() > cone {
                 sum += s;
                 count += n;
             }
@@ -251,6 +267,8 @@ mod tests {
         assert!(angle < 2.5, "{best:?} is {angle:.1} degrees off");
         let flat = bins.score(DVec3::Z).unwrap();
         assert!(best.gamma < 0.5 * flat, "{best:?} against flat {flat}");
+        // Across a slab 6 m thick, 10-40 m away, an ore sample's partners are all waste.
+        assert_eq!(bins.across(n), Some(0.5));
 
         // The alternatives: the best first, then planes at least 15 degrees apart, each
         // of them scoring what the map says of it.

@@ -33,6 +33,12 @@ pub const MIN_MINOR_SAMPLES: f64 = 3.0;
 /// its intercept measures the ore's extent in the plane, not its thickness across it.
 pub const MIN_CROSSING_DEGREES: f64 = 20.0;
 
+/// When ore continues across the ore's plane at least this share as often as along it
+/// (pairs of an ore sample with samples of other holes 0.5-2 hole spacings away, the
+/// variogram map's), the ore is not a lens at the scale of the drilling: the minor range is
+/// that share of the semi-major range instead of the intercepts' thickness (docs/field.md).
+pub const MASSIVE_ACROSS_SHARE: f64 = 0.5;
+
 /// The nugget is at most this share of the sill.
 pub const MAX_NUGGET_SHARE: f64 = 0.5;
 
@@ -289,6 +295,13 @@ pub struct MapScores {
     /// Whether the map's plane was used: its semivariogram is below the intercepts' by
     /// more than [`MAP_MARGIN`] of it.
     pub used: bool,
+    /// Mean semivariogram of the ore's pairs across the plane used (within
+    /// [`super::continuity::ACROSS_DEGREES`] of its normal).
+    pub across_gamma: Option<f64>,
+    /// How often ore continues across the plane used, as a share of how often it does
+    /// along it: `(1 - 2 across_gamma) / (1 - 2 gamma)`, with the gamma of the plane used
+    /// (see [`MASSIVE_ACROSS_SHARE`]).
+    pub across_share: Option<f64>,
 }
 
 /// The variogram map's plane replaces the intercepts' when its semivariogram is lower by

@@ -134,7 +134,7 @@ pub enum Source {
     /// From the intercepts at the lowest level.
     Intercepts,
     /// From the down-hole variogram or the variance (sill, nugget), or the variogram map
-    /// (the orientation, `continuity.rs`).
+    /// (the orientation, and the minor range of ore that is not a lens; `continuity.rs`).
     Variogram,
     /// No rule applied (too few holes cut the ore): the documented fallback.
     Default,
@@ -247,8 +247,8 @@ impl Field {
         let geometry = ore_geometry(&t, &cuts, transform.apply(level), spacing);
         let (orientation, ranges, mut orientation_source, mut range_source) =
             shape(options, geometry.as_ref(), spacing);
-        let search =
-            options.shape_from == ShapeFrom::CrossValidation && range_source == Source::Intercepts;
+        let search = options.shape_from == ShapeFrom::CrossValidation
+            && matches!(range_source, Source::Intercepts | Source::Variogram);
         let planes = if search {
             plane_candidates(
                 &t,
@@ -410,11 +410,20 @@ fn ore_geometry(
         .flatten();
     let used = mapped.is_some();
     let mut geometry = mapped.unwrap_or(own);
+    let along = if used { best.gamma } else { own_gamma };
+    let across_gamma = map
+        .as_ref()
+        .and_then(|m| m.across(geometry.orientation.axes()[2]));
+    let across_share = across_gamma
+        .filter(|_| along < 0.5)
+        .map(|a| (1.0 - 2.0 * a) / (1.0 - 2.0 * along));
     geometry.map = Some(estimate::MapScores {
         plane: Orientation::from_axes(geometry.orientation.axes()[0], best.normal),
         gamma: best.gamma,
         intercepts_gamma: own_gamma,
         used,
+        across_gamma,
+        across_share,
     });
     Some(geometry)
 }
@@ -521,12 +530,20 @@ fn shape(
         Some(g) => {
             let major = bound(g.spread[0]);
             let semi = bound(g.spread[1]).min(major);
-            let minor = g.thickness.max(min_minor).min(semi);
+            let thickness = g.thickness.max(min_minor);
+            let (minor, source) = match g.map.and_then(|m| m.across_share) {
+                Some(share)
+                    if share >= estimate::MASSIVE_ACROSS_SHARE && share * semi > thickness =>
+                {
+                    (share * semi, Source::Variogram)
+                }
+                _ => (thickness, Source::Intercepts),
+            };
             (
                 orientation,
-                [major, semi, minor],
+                [major, semi, minor.min(semi)],
                 orientation_source,
-                Source::Intercepts,
+                source,
             )
         }
         None => {
