@@ -615,32 +615,46 @@ fn tom_zone_without(fold: Option<usize>) -> SampleSet {
     .expect("Tom Zone loads")
 }
 
-/// Tom Zone is a field of staggered lenses: ore samples find ore across the ore's plane,
-/// 0.5-2 hole spacings away, more than half as often as along it, so the minor range is
-/// that share of the in-plane ranges (`sources: variogram`), not one run's thickness, and
-/// cross-validation finds no candidate better than it.
-#[test]
-fn tom_zones_field_of_lenses_gets_the_massive_ore_minor_range() {
+/// The model of [`tom_zone_without`]`(fold)` with `--shape-from cross-validation`: its
+/// parameters, the intercepts' geometry and the variogram map's share of ore across the
+/// plane.
+fn tom_zone_searched(
+    fold: Option<usize>,
+) -> (
+    wellmesh::field::FieldParams,
+    wellmesh::field::estimate::InterceptGeometry,
+    f64,
+) {
     let model = run_on(
-        tom_zone_without(None),
+        tom_zone_without(fold),
         ContourOptions {
             thresholds: vec![CUT],
             shape_from: Some("cross-validation".into()),
             ..ContourOptions::default()
         },
     );
-    let m = model.summary.model.as_ref().expect("a model");
-    let g = m.params.intercepts.expect("intercepts");
+    let params = model.summary.model.expect("a model").params;
+    let g = params.intercepts.expect("intercepts");
     let share = g.map.and_then(|s| s.across_share).expect("the map's share");
+    (params, g, share)
+}
+
+/// Tom Zone is a field of staggered lenses: ore samples find ore across the ore's plane,
+/// 0.5-2 hole spacings away, more than half as often as along it, so the minor range is
+/// that share of the in-plane ranges (`sources: variogram`), not one run's thickness, and
+/// cross-validation finds no candidate better than it.
+#[test]
+fn tom_zones_field_of_lenses_gets_the_massive_ore_minor_range() {
+    let (params, g, share) = tom_zone_searched(None);
     assert!(
         share >= wellmesh::field::estimate::MASSIVE_ACROSS_SHARE,
         "{g:?}"
     );
-    assert_eq!(m.params.sources.ranges, wellmesh::field::Source::Variogram);
-    let r = m.params.ranges;
+    assert_eq!(params.sources.ranges, wellmesh::field::Source::Variogram);
+    let r = params.ranges;
     assert!((r[2] - share * r[1]).abs() < 1e-9 * r[1], "{r:?}");
     assert!(r[2] > 5.0 * g.thickness, "{r:?} against {g:?}");
-    let search = m.params.shape_search.as_ref().expect("searched");
+    let search = params.shape_search.as_ref().expect("searched");
     assert_eq!(search.chosen, 0, "{search:?}");
 }
 
@@ -650,30 +664,20 @@ fn tom_zones_field_of_lenses_gets_the_massive_ore_minor_range() {
 /// and the summary records every candidate.
 #[test]
 fn cross_validation_widens_the_minor_range_where_tom_zone_looks_like_lenses() {
-    let model = run_on(
-        tom_zone_without(Some(0)),
-        ContourOptions {
-            thresholds: vec![CUT],
-            shape_from: Some("cross-validation".into()),
-            ..ContourOptions::default()
-        },
-    );
-    let m = model.summary.model.as_ref().expect("a model");
-    let g = m.params.intercepts.expect("intercepts");
-    let share = g.map.and_then(|s| s.across_share).expect("the map's share");
+    let (params, g, share) = tom_zone_searched(Some(0));
     assert!(
         share < wellmesh::field::estimate::MASSIVE_ACROSS_SHARE,
         "{g:?}"
     );
-    let search = m.params.shape_search.as_ref().expect("searched");
+    let search = params.shape_search.as_ref().expect("searched");
     let first = search.candidates[0];
     let chosen = search.candidates[search.chosen];
     assert!(search.chosen > 0, "{search:?}");
     assert_eq!(
-        m.params.sources.ranges,
+        params.sources.ranges,
         wellmesh::field::Source::CrossValidation
     );
-    assert_eq!(m.params.ranges, chosen.ranges);
+    assert_eq!(params.ranges, chosen.ranges);
     assert!(
         chosen.balanced_accuracy > first.balanced_accuracy + wellmesh::field::tune::MARGIN,
         "{search:?}"
