@@ -658,19 +658,26 @@ fn tom_zones_field_of_lenses_gets_the_massive_ore_minor_range() {
     assert_eq!(search.chosen, 0, "{search:?}");
 }
 
-/// Without every fifth hole (the held-out fold 0 of `tom_zone_holdout.py`) the share stays
-/// under one half and the minor range is one lens's thickness; `--shape-from
-/// cross-validation` finds a less anisotropic model that predicts held-out holes better,
-/// and the summary records every candidate.
+/// Without every fifth hole (the held-out fold 0 of `tom_zone_holdout.py`) the share sits
+/// between the lens's and massive ore's, so the minor range lies between one lens's
+/// thickness and the massive ore's; `--shape-from cross-validation` finds a model that
+/// predicts held-out holes better by more than the margin, and the summary records every
+/// candidate.
 #[test]
-fn cross_validation_widens_the_minor_range_where_tom_zone_looks_like_lenses() {
+fn cross_validation_retunes_tom_zone_where_the_share_lies_between_lens_and_massive() {
+    use wellmesh::field::estimate::{LENS_ACROSS_SHARE, MASSIVE_ACROSS_SHARE};
     let (params, g, share) = tom_zone_searched(Some(0));
     assert!(
-        share < wellmesh::field::estimate::MASSIVE_ACROSS_SHARE,
+        share > LENS_ACROSS_SHARE && share < MASSIVE_ACROSS_SHARE,
         "{g:?}"
     );
     let search = params.shape_search.as_ref().expect("searched");
     let first = search.candidates[0];
+    let semi = first.ranges[1];
+    assert!(
+        first.ranges[2] > g.thickness && first.ranges[2] < share * semi,
+        "{first:?} against {g:?}"
+    );
     let chosen = search.candidates[search.chosen];
     assert!(search.chosen > 0, "{search:?}");
     assert_eq!(
@@ -682,6 +689,5 @@ fn cross_validation_widens_the_minor_range_where_tom_zone_looks_like_lenses() {
         chosen.balanced_accuracy > first.balanced_accuracy + wellmesh::field::tune::MARGIN,
         "{search:?}"
     );
-    assert!(chosen.ranges[2] > 2.0 * first.ranges[2], "{search:?}");
     assert!(search.evaluated <= search.samples);
 }

@@ -14,6 +14,11 @@ computes), is tested against the 5 % shell:
   ore_inside    share of held-out assays with Zn >= 5 that lie inside the shell
   waste_outside share of held-out assays with Zn < 5 that lie outside it
   balanced      (ore_inside + waste_outside) / 2
+  inside_per_ore  held-out assays inside the shell per held-out assay of ore: 1 when the
+                shell holds as many assays as there are of ore (its tonnage is unbiased,
+                ore lost and waste taken in cancel), above 1 when it overstates the ore.
+                Balanced accuracy rewards a shell that takes in waste to keep ore (a
+                shell drawn lower scores higher): read the two together.
 
 wellmesh: the reduced tables go through `wellmesh contour --variable Zn_pct --threshold 5
 [WELLMESH_ARGS]`; a point is inside when it is inside any body of the GLB (ray parity).
@@ -72,7 +77,9 @@ def scores(inside: np.ndarray, values: np.ndarray) -> dict:
     ore = values >= THRESHOLD
     oi = float(inside[ore].mean()) if ore.any() else float("nan")
     wo = float((~inside[~ore]).mean()) if (~ore).any() else float("nan")
+    per_ore = float(inside.sum() / ore.sum()) if ore.any() else float("nan")
     return dict(ore_inside=oi, waste_outside=wo, balanced=(oi + wo) / 2.0,
+                inside_per_ore=per_ore,
                 held_out_ore=int(ore.sum()), held_out_waste=int((~ore).sum()))
 
 
@@ -166,6 +173,9 @@ def ferreus_configs(ranges: list[float], sweep: bool, plane: float = 100.0,
     return cfgs
 
 
+KEYS = ("ore_inside", "waste_outside", "balanced", "inside_per_ore")
+
+
 def report(records: list[dict], folds: list[int]) -> tuple[str, dict]:
     by_tool: dict[str, list[dict]] = {}
     for r in records:
@@ -173,14 +183,13 @@ def report(records: list[dict], folds: list[int]) -> tuple[str, dict]:
     rows, summary = [], {}
     for tool, rs in by_tool.items():
         f0 = [r for r in rs if r["fold"] == 0]
-        mean = {k: float(np.mean([r[k] for r in rs])) for k in ("ore_inside", "waste_outside",
-                                                                "balanced")}
+        mean = {k: float(np.mean([r[k] for r in rs])) for k in KEYS}
         summary[tool] = dict(fold0=f0[0] if f0 else None, mean=mean, folds=len(rs))
         rows.append((tool, f0[0] if f0 else None, mean, len(rs)))
     prefix = "ferreus trend "
     trend_rows = [r for r in rows if r[0].startswith(prefix)]
     lines = ["| model | fold 0 ore in | fold 0 waste out | fold 0 balanced | mean ore in | "
-             "mean waste out | mean balanced | folds |", "|" + "---|" * 8]
+             "mean waste out | mean balanced | mean inside per ore | folds |", "|" + "---|" * 9]
     shown = [r for r in rows if not r[0].startswith(prefix)]
     if trend_rows:
         best0 = max(trend_rows, key=lambda r: r[1]["balanced"] if r[1] else -1)
@@ -195,8 +204,7 @@ def report(records: list[dict], folds: list[int]) -> tuple[str, dict]:
         for k in sorted({r["fold"] for r in trend_recs}):
             per_fold.append(max((r for r in trend_recs if r["fold"] == k),
                                 key=lambda r: r["balanced"]))
-        mean = {k: float(np.mean([r[k] for r in per_fold]))
-                for k in ("ore_inside", "waste_outside", "balanced")}
+        mean = {k: float(np.mean([r[k] for r in per_fold])) for k in KEYS}
         f0 = next((r for r in per_fold if r["fold"] == 0), None)
         shown.append(("best trend of each fold", f0, mean, len(per_fold)))
         summary["best_trend_each_fold"] = dict(mean=mean, trends=[r["tool"] for r in per_fold])
@@ -204,7 +212,7 @@ def report(records: list[dict], folds: list[int]) -> tuple[str, dict]:
         a = (f"{f0['ore_inside']:.3f} | {f0['waste_outside']:.3f} | {f0['balanced']:.3f}"
              if f0 else "- | - | -")
         lines.append(f"| {tool} | {a} | {mean['ore_inside']:.3f} | {mean['waste_outside']:.3f} | "
-                     f"{mean['balanced']:.3f} | {n} |")
+                     f"{mean['balanced']:.3f} | {mean['inside_per_ore']:.2f} | {n} |")
     return "\n".join(lines) + "\n", summary
 
 
@@ -243,7 +251,8 @@ def main(argv=None) -> int:
             rec = wellmesh_fold(k, held, all_samples, args.out, args.wellmesh, extra, label)
             new.append(rec)
             print(f"fold {k} {label}: balanced {rec['balanced']:.3f} (ore in {rec['ore_inside']:.3f}, "
-                  f"waste out {rec['waste_outside']:.3f}), {rec['bodies']} bodies", flush=True)
+                  f"waste out {rec['waste_outside']:.3f}), inside per ore "
+                  f"{rec['inside_per_ore']:.2f}, {rec['bodies']} bodies", flush=True)
         if "ferreus" in tools:
             for rec in ferreus_fold(k, held, all_samples, configs):
                 new.append(rec)

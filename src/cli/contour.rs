@@ -158,8 +158,8 @@ pub struct Args {
 
     /// How the orientation and ranges not given are found: rules (default: the extent,
     /// thickness and plane of the runs of ore down the holes, the plane checked by a
-    /// variogram map, the thickness widened when ore continues across the plane at least
-    /// half as often as along it) or cross-validation (the rules' model beside other planes
+    /// variogram map, the thickness widened when ore continues across the plane more than
+    /// a quarter as often as along it) or cross-validation (the rules' model beside other planes
     /// of the map and ranges scaled across the ore by up to 4 and in its plane down to 0.4;
     /// the one whose model puts the samples of held-out holes on the right side of the
     /// threshold most often is kept. For fields of many lenses; two to four times as slow;

@@ -39,6 +39,21 @@ pub const MIN_CROSSING_DEGREES: f64 = 20.0;
 /// that share of the semi-major range instead of the intercepts' thickness (docs/field.md).
 pub const MASSIVE_ACROSS_SHARE: f64 = 0.5;
 
+/// At or below this share the ore is a lens and the intercepts' thickness is the minor
+/// range; between it and [`MASSIVE_ACROSS_SHARE`] the minor range moves linearly from the
+/// thickness to the massive ore's, so a share near the cut does not flip the model.
+pub const LENS_ACROSS_SHARE: f64 = 0.25;
+
+/// The minor range from the intercepts' `thickness` and the variogram map's `share` of ore
+/// across the plane: the thickness for a lens, `share * semi` for massive ore, a linear
+/// blend between [`LENS_ACROSS_SHARE`] and [`MASSIVE_ACROSS_SHARE`]. `None` when the
+/// thickness stands (a lens, or massive ore no thicker than the thickness).
+pub fn massive_minor(thickness: f64, share: f64, semi: f64) -> Option<f64> {
+    let w = ((share - LENS_ACROSS_SHARE) / (MASSIVE_ACROSS_SHARE - LENS_ACROSS_SHARE)).min(1.0);
+    let massive = share * semi;
+    (w > 0.0 && massive > thickness).then_some(thickness + w * (massive - thickness))
+}
+
 /// The nugget is at most this share of the sill.
 pub const MAX_NUGGET_SHARE: f64 = 0.5;
 
@@ -300,7 +315,7 @@ pub struct MapScores {
     pub across_gamma: Option<f64>,
     /// How often ore continues across the plane used, as a share of how often it does
     /// along it: `(1 - 2 across_gamma) / (1 - 2 gamma)`, with the gamma of the plane used
-    /// (see [`MASSIVE_ACROSS_SHARE`]).
+    /// (see [`massive_minor`]).
     pub across_share: Option<f64>,
 }
 
@@ -400,6 +415,25 @@ pub fn intercept_geometry(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A lens keeps its thickness, massive ore gets its share of the semi-major range, and
+    /// between the two shares the minor range moves without a jump.
+    #[test]
+    fn the_minor_range_moves_from_the_lens_to_massive_ore_without_a_jump() {
+        let (thickness, semi) = (10.0, 160.0);
+        assert_eq!(massive_minor(thickness, 0.0, semi), None);
+        assert_eq!(massive_minor(thickness, LENS_ACROSS_SHARE, semi), None);
+        let full = massive_minor(thickness, MASSIVE_ACROSS_SHARE, semi).unwrap();
+        assert!((full - MASSIVE_ACROSS_SHARE * semi).abs() < 1e-9);
+        assert_eq!(massive_minor(thickness, 0.8, semi), Some(0.8 * semi));
+        let mid = (LENS_ACROSS_SHARE + MASSIVE_ACROSS_SHARE) / 2.0;
+        let half = massive_minor(thickness, mid, semi).unwrap();
+        assert!((half - (thickness + (mid * semi - thickness) / 2.0)).abs() < 1e-9);
+        let below = massive_minor(thickness, MASSIVE_ACROSS_SHARE - 1e-6, semi).unwrap();
+        assert!((full - below).abs() < 1e-3, "{below} against {full}");
+        // Massive ore no thicker than the runs down the holes: the thickness stands.
+        assert_eq!(massive_minor(100.0, 0.6, semi), None);
+    }
 
     #[test]
     fn principal_axes_of_a_rotated_diagonal() {

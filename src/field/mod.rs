@@ -531,13 +531,13 @@ fn shape(
             let major = bound(g.spread[0]);
             let semi = bound(g.spread[1]).min(major);
             let thickness = g.thickness.max(min_minor);
-            let (minor, source) = match g.map.and_then(|m| m.across_share) {
-                Some(share)
-                    if share >= estimate::MASSIVE_ACROSS_SHARE && share * semi > thickness =>
-                {
-                    (share * semi, Source::Variogram)
-                }
-                _ => (thickness, Source::Intercepts),
+            let massive = g
+                .map
+                .and_then(|m| m.across_share)
+                .and_then(|share| estimate::massive_minor(thickness, share, semi));
+            let (minor, source) = match massive {
+                Some(m) => (m, Source::Variogram),
+                None => (thickness, Source::Intercepts),
             };
             (
                 orientation,

@@ -332,6 +332,13 @@ def test_balanced_accuracy_of_held_out_assays():
     assert s["ore_inside"] == pytest.approx(2 / 3)
     assert s["waste_outside"] == pytest.approx(4 / 5)
     assert s["balanced"] == pytest.approx((2 / 3 + 4 / 5) / 2)
+    # 3 of 8 inside against 3 of ore: the shell holds as many assays as there are of ore.
+    assert s["inside_per_ore"] == pytest.approx(1.0)
+    # Drawn lower: one more ore assay kept, one more waste taken in; balanced accuracy rises
+    # while the shell overstates the ore by two thirds.
+    grown = inside | (values >= 4.9)
+    assert tz.scores(grown, values)["inside_per_ore"] == pytest.approx(5 / 3)
+    assert tz.scores(grown, values)["balanced"] > s["balanced"]
 
 
 @pytest.mark.skipif(not Path("/usr/bin/time").exists(), reason="needs GNU time")
