@@ -418,6 +418,48 @@ fn given_parameters_are_used_and_recorded() {
     assert_eq!(bodies, 1);
 }
 
+/// An orientation given by hand is the frame its ranges are found in: with the lens's own
+/// axes the minor range is the lens's thickness; with the lens turned on edge (its major
+/// axis given as the plane's normal) the holes run along that plane, and the minor range is
+/// the intercepts' spread across it, not the thickness of the rules' plane.
+#[test]
+fn a_given_orientation_is_the_frame_its_ranges_are_found_in() {
+    let given = |o: wellmesh::field::Orientation| {
+        let model = run(ContourOptions {
+            thresholds: vec![CUT],
+            orientation: Some([o.dip_direction, o.dip, o.pitch]),
+            ..ContourOptions::default()
+        });
+        let params = model.summary.model.expect("a model").params;
+        let g = params.intercepts.expect("intercepts");
+        let [a, b] = [o.axes()[2], g.orientation.axes()[2]];
+        assert!(
+            a.dot(b).abs() > 1.0 - 1e-9,
+            "{o:?} against {:?}",
+            g.orientation
+        );
+        assert_eq!(params.sources.orientation, wellmesh::field::Source::Given);
+        (params.ranges, g)
+    };
+    let [major, semi, _] = axes();
+    let own = wellmesh::field::Orientation {
+        dip_direction: DIP_DIRECTION,
+        dip: DIP,
+        pitch: PITCH,
+    };
+    let (ranges, g) = given(own);
+    assert!(g.thickness < 2.0 * SEMI_AXES.z, "{g:?}");
+    assert!(ranges[2] >= g.thickness, "{ranges:?} against {g:?}");
+    let on_edge = wellmesh::field::Orientation::from_axes(semi, major);
+    let (edge_ranges, edge) = given(on_edge);
+    assert_eq!(edge.thickness_holes, 0, "{edge:?}");
+    assert!(edge.thickness > 5.0 * g.thickness, "{edge:?} against {g:?}");
+    assert!(
+        edge_ranges[2] > 3.0 * ranges[2],
+        "{edge_ranges:?} against {ranges:?}"
+    );
+}
+
 #[test]
 fn flags_are_modelled_by_the_distance_to_their_contacts() {
     let half = || ContourOptions {

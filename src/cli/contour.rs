@@ -129,7 +129,8 @@ pub struct Args {
 
     /// The ore's orientation: dip direction, dip and pitch in degrees (the plane dips toward
     /// the dip direction; the pitch turns the major axis in the plane from the strike).
-    /// Default: the principal axes of the intercepts.
+    /// Default: the principal axes of the intercepts. Ranges not given are measured along
+    /// these axes.
     #[arg(long, value_name = "DIPDIR,DIP,PITCH", value_parser = parse_triple, allow_negative_numbers = true, help_heading = MODEL)]
     pub orientation: Option<[f64; 3]>,
 

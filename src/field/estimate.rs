@@ -323,6 +323,17 @@ pub struct MapScores {
 /// more than this share (docs/field.md).
 pub const MAP_MARGIN: f64 = 0.04;
 
+/// The frame the intercepts' extent and thickness are measured in.
+#[derive(Debug, Clone, Copy)]
+enum Axes {
+    /// The centres' principal axes.
+    Principal,
+    /// The plane normal to this vector, its major axis the centres' greatest spread in it.
+    Plane(DVec3),
+    /// These axes as they are (an orientation given by hand).
+    Given(Orientation),
+}
+
 /// The orientation and extent of the ore from the intercepts at `level`, when at least
 /// [`MIN_INTERCEPT_HOLES`] holes cut it: in the plane normal to `plane` when given (the
 /// centres' spread projected into it), else in the plane of their principal axes.
@@ -330,6 +341,20 @@ pub fn intercept_geometry(
     intercepts: &[Intercept],
     plane: Option<DVec3>,
 ) -> Option<InterceptGeometry> {
+    geometry(intercepts, plane.map_or(Axes::Principal, Axes::Plane))
+}
+
+/// The extent and thickness of the ore measured along the axes of `orientation` (one
+/// given by hand): the centres' spread along its major and semi-major axes, the thickness
+/// across its plane.
+pub fn intercept_geometry_in(
+    intercepts: &[Intercept],
+    orientation: Orientation,
+) -> Option<InterceptGeometry> {
+    geometry(intercepts, Axes::Given(orientation))
+}
+
+fn geometry(intercepts: &[Intercept], axes: Axes) -> Option<InterceptGeometry> {
     let mut holes: Vec<u32> = intercepts.iter().map(|i| i.hole).collect();
     holes.sort_unstable();
     holes.dedup();
@@ -367,17 +392,36 @@ pub fn intercept_geometry(
         cov += DMat3::from_cols(d * d.x, d * d.y, d * d.z) * i.length;
     }
     cov *= 1.0 / total;
-    let unprojected = cov;
-    if let Some(n) = plane {
-        let n = n.normalize();
-        let project = DMat3::IDENTITY - DMat3::from_cols(n * n.x, n * n.y, n * n.z);
-        cov = project * cov * project;
-    }
-    let (vals, vecs) = principal_axes(cov);
-    if vals[1] <= 0.0 {
-        return None;
-    }
-    let normal = plane.map_or(vecs[2], DVec3::normalize);
+    let (orientation, spread, normal) = match axes {
+        Axes::Given(o) => {
+            let [major, semi, normal] = o.axes();
+            let sd = |a: DVec3| a.dot(cov * a).max(0.0).sqrt();
+            (o, [sd(major), sd(semi)], normal)
+        }
+        Axes::Principal | Axes::Plane(_) => {
+            let plane = match axes {
+                Axes::Plane(n) => Some(n.normalize()),
+                _ => None,
+            };
+            let projected = match plane {
+                Some(n) => {
+                    let project = DMat3::IDENTITY - DMat3::from_cols(n * n.x, n * n.y, n * n.z);
+                    project * cov * project
+                }
+                None => cov,
+            };
+            let (vals, vecs) = principal_axes(projected);
+            if vals[1] <= 0.0 {
+                return None;
+            }
+            let normal = plane.unwrap_or(vecs[2]);
+            (
+                Orientation::from_axes(vecs[0], normal),
+                [vals[0].sqrt(), vals[1].sqrt()],
+                normal,
+            )
+        }
+    };
     let mut longest: std::collections::HashMap<u32, &Intercept> = std::collections::HashMap::new();
     for &i in &intercepts {
         let e = longest.entry(i.hole).or_insert(i);
@@ -396,14 +440,11 @@ pub fn intercept_geometry(
     let thickness = if thickness_holes >= MIN_INTERCEPT_HOLES {
         median(across)?
     } else {
-        SPREAD_SIGMAS * normal.dot(unprojected * normal).max(0.0).sqrt()
+        SPREAD_SIGMAS * normal.dot(cov * normal).max(0.0).sqrt()
     };
     Some(InterceptGeometry {
-        orientation: Orientation::from_axes(vecs[0], normal),
-        spread: [
-            SPREAD_SIGMAS * vals[0].sqrt(),
-            SPREAD_SIGMAS * vals[1].sqrt(),
-        ],
+        orientation,
+        spread: [SPREAD_SIGMAS * spread[0], SPREAD_SIGMAS * spread[1]],
         thickness,
         thickness_holes,
         holes: holes.len(),

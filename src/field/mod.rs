@@ -244,7 +244,13 @@ impl Field {
         let (sill, nugget, sill_nugget_sources) = sill_and_nugget(&t, &holes, options);
         let level = levels.iter().copied().fold(f64::INFINITY, f64::min);
         let cuts = estimate::intercepts(&t, &holes, transform.apply(level), spacing.sample);
-        let geometry = ore_geometry(&t, &cuts, transform.apply(level), spacing);
+        let geometry = ore_geometry(
+            &t,
+            &cuts,
+            transform.apply(level),
+            spacing,
+            options.orientation,
+        );
         let (orientation, ranges, mut orientation_source, mut range_source) =
             shape(options, geometry.as_ref(), spacing);
         let search = options.shape_from == ShapeFrom::CrossValidation
@@ -390,33 +396,47 @@ impl Field {
 
 /// The ore's geometry from the intercepts, in the plane of their principal axes unless
 /// the variogram map finds a plane of clearly better continuity (by more than
-/// [`estimate::MAP_MARGIN`]): then in the map's plane.
+/// [`estimate::MAP_MARGIN`]): then in the map's plane. With an orientation `given` by
+/// hand, measured along its axes (its extent, thickness and the map's share across it).
 fn ore_geometry(
     t: &Samples,
     cuts: &[estimate::Intercept],
     level: f64,
     spacing: Spacing,
+    given: Option<Orientation>,
 ) -> Option<InterceptGeometry> {
     let own = estimate::intercept_geometry(cuts, None)?;
     let map = continuity::DirectionBins::new(t, level, spacing.hole);
+    let in_given = || given.and_then(|o| estimate::intercept_geometry_in(cuts, o));
     let scores = map
         .as_ref()
         .and_then(|m| Some((m.best()?, m.score(own.orientation.axes()[2])?)));
     let Some((best, own_gamma)) = scores else {
-        return Some(own);
+        return if given.is_some() {
+            in_given()
+        } else {
+            Some(own)
+        };
     };
-    let mapped = (best.gamma < own_gamma * (1.0 - estimate::MAP_MARGIN))
-        .then(|| estimate::intercept_geometry(cuts, Some(best.normal)))
-        .flatten();
-    let used = mapped.is_some();
-    let mut geometry = mapped.unwrap_or(own);
-    let along = if used { best.gamma } else { own_gamma };
+    let (mut geometry, used, along) = if given.is_some() {
+        let g = in_given()?;
+        let along = map.as_ref().and_then(|m| m.score(g.orientation.axes()[2]));
+        (g, false, along)
+    } else {
+        let mapped = (best.gamma < own_gamma * (1.0 - estimate::MAP_MARGIN))
+            .then(|| estimate::intercept_geometry(cuts, Some(best.normal)))
+            .flatten();
+        let used = mapped.is_some();
+        let along = if used { best.gamma } else { own_gamma };
+        (mapped.unwrap_or(own), used, Some(along))
+    };
     let across_gamma = map
         .as_ref()
         .and_then(|m| m.across(geometry.orientation.axes()[2]));
     let across_share = across_gamma
-        .filter(|_| along < 0.5)
-        .map(|a| (1.0 - 2.0 * a) / (1.0 - 2.0 * along));
+        .zip(along)
+        .filter(|&(_, along)| along < 0.5)
+        .map(|(a, along)| (1.0 - 2.0 * a) / (1.0 - 2.0 * along));
     geometry.map = Some(estimate::MapScores {
         plane: Orientation::from_axes(geometry.orientation.axes()[0], best.normal),
         gamma: best.gamma,

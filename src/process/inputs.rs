@@ -118,7 +118,7 @@ pub struct ProcessInputs {
     #[schema(min_items = 3, max_items = 3)]
     pub ranges: Option<[f64; 3]>,
     /// The ore's orientation `[dip direction, dip, pitch]` in degrees; default from the
-    /// principal axes of the intercepts.
+    /// principal axes of the intercepts. Ranges not given are measured along its axes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(min_items = 3, max_items = 3)]
     pub orientation: Option<[f64; 3]>,
