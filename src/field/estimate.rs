@@ -326,10 +326,9 @@ pub const MAP_MARGIN: f64 = 0.04;
 /// The frame the intercepts' extent and thickness are measured in.
 #[derive(Debug, Clone, Copy)]
 enum Axes {
-    /// The centres' principal axes.
-    Principal,
-    /// The plane normal to this vector, its major axis the centres' greatest spread in it.
-    Plane(DVec3),
+    /// The centres' principal axes; in the plane normal to the vector when there is one,
+    /// its major axis the centres' greatest spread in that plane.
+    Principal(Option<DVec3>),
     /// These axes as they are (an orientation given by hand).
     Given(Orientation),
 }
@@ -341,7 +340,7 @@ pub fn intercept_geometry(
     intercepts: &[Intercept],
     plane: Option<DVec3>,
 ) -> Option<InterceptGeometry> {
-    geometry(intercepts, plane.map_or(Axes::Principal, Axes::Plane))
+    geometry(intercepts, Axes::Principal(plane))
 }
 
 /// The extent and thickness of the ore measured along the axes of `orientation` (one
@@ -398,11 +397,8 @@ fn geometry(intercepts: &[Intercept], axes: Axes) -> Option<InterceptGeometry> {
             let sd = |a: DVec3| a.dot(cov * a).max(0.0).sqrt();
             (o, [sd(major), sd(semi)], normal)
         }
-        Axes::Principal | Axes::Plane(_) => {
-            let plane = match axes {
-                Axes::Plane(n) => Some(n.normalize()),
-                _ => None,
-            };
+        Axes::Principal(plane) => {
+            let plane = plane.map(DVec3::normalize);
             let projected = match plane {
                 Some(n) => {
                     let project = DMat3::IDENTITY - DMat3::from_cols(n * n.x, n * n.y, n * n.z);

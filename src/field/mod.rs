@@ -407,28 +407,29 @@ fn ore_geometry(
 ) -> Option<InterceptGeometry> {
     let own = estimate::intercept_geometry(cuts, None)?;
     let map = continuity::DirectionBins::new(t, level, spacing.hole);
-    let in_given = || given.and_then(|o| estimate::intercept_geometry_in(cuts, o));
     let scores = map
         .as_ref()
         .and_then(|m| Some((m.best()?, m.score(own.orientation.axes()[2])?)));
     let Some((best, own_gamma)) = scores else {
-        return if given.is_some() {
-            in_given()
-        } else {
-            Some(own)
+        return match given {
+            Some(o) => estimate::intercept_geometry_in(cuts, o),
+            None => Some(own),
         };
     };
-    let (mut geometry, used, along) = if given.is_some() {
-        let g = in_given()?;
-        let along = map.as_ref().and_then(|m| m.score(g.orientation.axes()[2]));
-        (g, false, along)
-    } else {
-        let mapped = (best.gamma < own_gamma * (1.0 - estimate::MAP_MARGIN))
-            .then(|| estimate::intercept_geometry(cuts, Some(best.normal)))
-            .flatten();
-        let used = mapped.is_some();
-        let along = if used { best.gamma } else { own_gamma };
-        (mapped.unwrap_or(own), used, Some(along))
+    let (mut geometry, used, along) = match given {
+        Some(o) => {
+            let g = estimate::intercept_geometry_in(cuts, o)?;
+            let along = map.as_ref().and_then(|m| m.score(o.axes()[2]));
+            (g, false, along)
+        }
+        None => {
+            let mapped = (best.gamma < own_gamma * (1.0 - estimate::MAP_MARGIN))
+                .then(|| estimate::intercept_geometry(cuts, Some(best.normal)))
+                .flatten();
+            let used = mapped.is_some();
+            let along = if used { best.gamma } else { own_gamma };
+            (mapped.unwrap_or(own), used, Some(along))
+        }
     };
     let across_gamma = map
         .as_ref()
