@@ -5,8 +5,9 @@
 //! sample outside minus that distance, both capped at a distance `cap`; a hole with no
 //! contact gets `cap` (all ore) or `-cap` (all waste) everywhere. The contacts are the
 //! midpoints between consecutive samples on either side of the level after the same
-//! internal dilution the intercepts bridge (at most [`MAX_DILUTION`] waste samples
-//! between ore samples count as ore), so an assay of waste inside an ore run does not cut
+//! internal dilution the intercepts bridge ([`ore_runs`]: at most
+//! [`MAX_DILUTION`](super::estimate::MAX_DILUTION) waste samples between ore samples
+//! count as ore), so an assay of waste inside an ore run does not cut
 //! the run in two. The kriged distance is contoured at zero: thickness is interpolated
 //! between holes instead of a 0/1 step, which an indicator smooths away across a thin
 //! lens.
@@ -14,7 +15,7 @@
 //! Invariant: a sample's value is positive exactly when it lies in an ore run (after the
 //! bridging), and its magnitude never exceeds `cap`.
 
-use super::estimate::{MAX_DILUTION, Samples};
+use super::estimate::{Samples, ore_runs};
 
 /// Samples' signed distances to the contacts at `level` along their holes (`holes`: the
 /// sample indices of each hole in down-hole order), capped at `cap` (> 0).
@@ -47,15 +48,12 @@ pub fn signed_distances(samples: &Samples, holes: &[Vec<u32>], level: f64, cap: 
     out
 }
 
-/// Ore flags with runs of at most [`MAX_DILUTION`] waste samples between ore samples
-/// counted as ore.
+/// Ore flags with the waste that [`ore_runs`] bridges inside a run counted as ore.
 fn bridged(flags: impl Iterator<Item = bool>) -> Vec<bool> {
-    let mut inside: Vec<bool> = flags.collect();
-    let ore: Vec<usize> = (0..inside.len()).filter(|&k| inside[k]).collect();
-    for w in ore.windows(2) {
-        if w[1] - w[0] <= MAX_DILUTION + 1 {
-            inside[w[0]..w[1]].iter_mut().for_each(|f| *f = true);
-        }
+    let flags: Vec<bool> = flags.collect();
+    let mut inside = vec![false; flags.len()];
+    for (first, last) in ore_runs(flags) {
+        inside[first..=last].iter_mut().for_each(|f| *f = true);
     }
     inside
 }

@@ -188,8 +188,25 @@ pub fn sill_and_nugget(samples: &Samples, holes: &[Vec<u32>]) -> (f64, f64) {
     (sill, nugget.min(MAX_NUGGET_SHARE * sill))
 }
 
-/// The runs of samples at or above `level` down each hole, bridging at most
-/// [`MAX_DILUTION`] waste samples.
+/// The runs of ore down one hole, given each sample's flag in down-hole order: the
+/// positions of each run's first and last ore sample, where at most [`MAX_DILUTION`]
+/// waste samples between two ore samples are bridged (internal dilution). The one rule
+/// the intercepts and the contacts of a flag (`contacts.rs`) share.
+pub fn ore_runs(ore: impl IntoIterator<Item = bool>) -> Vec<(usize, usize)> {
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for (k, is_ore) in ore.into_iter().enumerate() {
+        if !is_ore {
+            continue;
+        }
+        match runs.last_mut() {
+            Some(run) if k - run.1 <= MAX_DILUTION + 1 => run.1 = k,
+            _ => runs.push((k, k)),
+        }
+    }
+    runs
+}
+
+/// The runs of samples at or above `level` down each hole ([`ore_runs`]).
 pub fn intercepts(
     samples: &Samples,
     holes: &[Vec<u32>],
@@ -197,41 +214,27 @@ pub fn intercepts(
     spacing: f64,
 ) -> Vec<Intercept> {
     let p = &samples.points;
+    let is_ore = |i: u32| samples.values[i as usize] >= level;
     let mut out = Vec::new();
     for hole in holes {
-        let ore: Vec<usize> = hole
-            .iter()
-            .enumerate()
-            .filter(|(_, i)| samples.values[**i as usize] >= level)
-            .map(|(k, _)| k)
-            .collect();
-        let mut start = 0;
-        while start < ore.len() {
-            let mut end = start;
-            while end + 1 < ore.len() && ore[end + 1] - ore[end] <= MAX_DILUTION + 1 {
-                end += 1;
-            }
-            let run = &hole[ore[start]..=ore[end]];
-            let (a, b) = (
-                p[run[0] as usize],
-                p[*run.last().unwrap_or(&run[0]) as usize],
-            );
+        for (first, last) in ore_runs(hole.iter().map(|&i| is_ore(i))) {
+            let (a, b) = (p[hole[first] as usize], p[hole[last] as usize]);
             let direction = if a.distance(b) > 0.0 {
                 (b - a).normalize()
             } else {
                 DVec3::Z
             };
-            let ore_points: Vec<DVec3> = ore[start..=end]
+            let ore_points: Vec<DVec3> = hole[first..=last]
                 .iter()
-                .map(|&k| p[hole[k] as usize])
+                .filter(|&&i| is_ore(i))
+                .map(|&i| p[i as usize])
                 .collect();
             out.push(Intercept {
-                hole: samples.holes[run[0] as usize],
+                hole: samples.holes[hole[first] as usize],
                 centre: ore_points.iter().sum::<DVec3>() / ore_points.len() as f64,
                 length: a.distance(b) + spacing,
                 direction,
             });
-            start = end + 1;
         }
     }
     out
@@ -452,6 +455,17 @@ fn geometry(intercepts: &[Intercept], axes: Axes) -> Option<InterceptGeometry> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Up to MAX_DILUTION waste samples inside a run are bridged, one more ends it; waste
+    /// at either end of a run is not part of it.
+    #[test]
+    fn ore_runs_bridge_internal_dilution_only() {
+        let flags = |s: &str| s.chars().map(|c| c == '1').collect::<Vec<_>>();
+        assert_eq!(ore_runs(flags("0100100011000")), vec![(1, 4), (8, 9)]);
+        assert_eq!(ore_runs(flags("1")), vec![(0, 0)]);
+        assert_eq!(ore_runs(flags("0000")), vec![]);
+        assert_eq!(ore_runs(flags("10011")), vec![(0, 4)]);
+    }
 
     /// A lens keeps its thickness, massive ore gets its share of the semi-major range, and
     /// between the two shares the minor range moves without a jump.
