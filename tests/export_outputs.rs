@@ -194,6 +194,7 @@ fn result(shells: Vec<(f64, Vec<Body>)>, crs: Option<&str>) -> ContourResult {
             filtered_volume: 0.0,
             volume_range: None,
             resource: None,
+            simplified: None,
         })
         .collect();
     let summary = Summary {

@@ -733,3 +733,78 @@ fn cross_validation_retunes_tom_zone_where_the_share_lies_between_lens_and_massi
     );
     assert!(search.evaluated <= search.samples);
 }
+
+#[test]
+fn a_models_bodies_are_simplified_within_a_quarter_step_keeping_volume_and_shape() {
+    let five = |simplify: Option<f64>| ContourOptions {
+        thresholds: vec![CUT],
+        simplify,
+        ..ContourOptions::default()
+    };
+    let full = run(five(Some(0.0)));
+    let simplified = run(five(None));
+    let (f, s) = (&full.summary.shells[0], &simplified.summary.shells[0]);
+    assert_eq!(f.simplified, None, "--simplify 0 keeps every triangle");
+    let done = s
+        .simplified
+        .expect("a model's bodies are simplified by default");
+    let finest = full.summary.model.as_ref().unwrap().infill.finest_step;
+    let step = finest.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(
+        (done.tolerance - 0.25 * step).abs() < 1e-12 * step,
+        "{done:?} {finest:?}"
+    );
+    assert_eq!(done.triangles_before, f.quality.triangles);
+    assert_eq!(done.vertices_before, f.quality.vertices);
+    assert!(
+        s.quality.triangles * 3 < f.quality.triangles,
+        "{} of {} triangles",
+        s.quality.triangles,
+        f.quality.triangles
+    );
+    assert!(s.quality.min_angle_under_10deg <= f.quality.min_angle_under_10deg.max(0.05));
+    // The same bodies, closed, each with its volume (to the f32 positions' precision).
+    assert_eq!(f.bodies.len(), s.bodies.len());
+    for (a, b) in f.bodies.iter().zip(&s.bodies) {
+        assert!(b.closed && b.truncated == a.truncated);
+        assert!(
+            (a.volume - b.volume).abs() < 1e-6 * a.volume,
+            "{} {}",
+            a.volume,
+            b.volume
+        );
+    }
+    assert!(done.largest_offset < done.tolerance, "{done:?}");
+    // The shape: against the true lens, as good as every triangle.
+    let (iou_full, iou_simplified) = (iou(&full), iou(&simplified));
+    assert!(
+        (iou_full - iou_simplified).abs() < 0.01,
+        "IoU {iou_full:.3} -> {iou_simplified:.3}"
+    );
+    // A distance given is the one used, and a larger one keeps fewer triangles.
+    let given = run(five(Some(2.0 * done.tolerance)));
+    let g = &given.summary.shells[0];
+    assert_eq!(g.simplified.unwrap().tolerance, 2.0 * done.tolerance);
+    assert!(g.quality.triangles < s.quality.triangles);
+}
+
+#[test]
+fn the_simplification_distance_is_checked_and_the_linear_interpolant_is_not_simplified() {
+    let bad = ContourOptions {
+        thresholds: vec![CUT],
+        simplify: Some(-1.0),
+        ..ContourOptions::default()
+    };
+    assert_eq!(bad.check().unwrap_err().field, "simplify");
+    let nan = ContourOptions {
+        simplify: Some(f64::NAN),
+        ..bad.clone()
+    };
+    assert_eq!(nan.check().unwrap_err().field, "simplify");
+    let linear = run(ContourOptions {
+        thresholds: vec![CUT],
+        interpolant: Some("linear".into()),
+        ..ContourOptions::default()
+    });
+    assert_eq!(linear.summary.shells[0].simplified, None);
+}

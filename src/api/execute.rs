@@ -76,6 +76,8 @@ pub struct MultipartInputs {
     /// Dip of the anisotropy's second axis, degrees.
     dip: Option<f64>,
     min_volume: Option<f64>,
+    /// Simplification tolerance (input units); 0 keeps every triangle.
+    simplify: Option<f64>,
     /// Sweeps of the shape relaxation of IbC and CoI vertices (0 to 50; default 3).
     relax: Option<u32>,
     /// `kriging` (default for samples) or `linear`.
@@ -489,7 +491,7 @@ async fn inputs_from_multipart(
                 inputs.insert(name.clone(), number_list(&name, &text)?);
             }
             "min_volume" | "composite_length" | "azimuth" | "dip" | "sill" | "nugget"
-            | "top_cut" | "resolution" => {
+            | "top_cut" | "resolution" | "simplify" => {
                 let value: f64 = text.trim().parse().map_err(|_| {
                     Problem::invalid_input(&name, format!("{:?} is not a number", text.trim()))
                 })?;

@@ -86,6 +86,15 @@ pub struct Args {
     #[arg(long, value_name = "VOLUME")]
     pub min_volume: Option<f64>,
 
+    /// Simplify the bodies: remove vertices while every removed one stays within this
+    /// distance (input units) of the surface kept, each body closed, no triangle turned by
+    /// more than 45 degrees nor made thinner than 10 degrees. 0 keeps every triangle.
+    /// Default: a model's surfaces within a quarter of its finest infill step (the summary's
+    /// `simplified` gives the tolerance and the counts before); the linear interpolant's and
+    /// grids' are not simplified.
+    #[arg(long, value_name = "DISTANCE")]
+    pub simplify: Option<f64>,
+
     /// Density in t/m3 for tonnes and metal (the report gives volumes and grades without
     /// one).
     #[arg(long, value_name = "T_PER_M3", conflicts_with = "density_column")]
@@ -256,6 +265,7 @@ impl Args {
             resolution: self.resolution,
             max_samples: self.max_samples,
             max_per_hole: self.max_per_hole,
+            simplify: self.simplify,
         }
     }
 

@@ -231,6 +231,7 @@ mod tests {
                     filtered_volume: 0.0,
                     volume_range: None,
                     resource: None,
+                    simplified: None,
                 }],
                 report: None,
                 warnings: Vec::new(),

@@ -21,10 +21,10 @@ pub use cross_validate::{CrossValidation, GradeScore, HoleScore, ThresholdScore}
 pub use model::ModelSummary;
 pub use request::{
     Anisotropy, ContourOptions, ContourRequest, GridSource, Interpolant, MAX_THRESHOLDS,
-    OptionError, Source, Thresholds, UnknownMode, default_method, is_binary,
+    OptionError, Simplify, Source, Thresholds, UnknownMode, default_method, is_binary,
 };
 pub use resource::{Density, DensitySummary, ReportRequest, ReportSummary, load_density_column};
-pub use summary::{BodySummary, ShellSummary, Summary, VolumeRange};
+pub use summary::{BodySummary, ShellSummary, Simplification, Summary, VolumeRange};
 
 /// The outcome of [`run`].
 #[derive(Debug, Clone)]
@@ -148,25 +148,30 @@ struct Extraction {
     /// never takes more than [`SPECK_SHARE`] of the shell's largest body.
     default_floor: bool,
     frame: Frame,
+    /// The simplification's tolerance (input units), `None` for none.
+    simplify: Option<f64>,
 }
 
 /// A default floor is at most this share of the shell's largest body: on sparse drilling
 /// (kilometre ranges) one infill cell can outweigh every body there is.
 const SPECK_SHARE: f64 = 0.01;
 
-/// What a `min_volume` filter left out of one shell.
+/// What a `min_volume` filter left out of one shell, and what the simplification took.
 #[derive(Debug, Clone, Copy, Default)]
 struct Filtered {
     bodies: usize,
     volume: f64,
+    simplified: Option<Simplification>,
 }
 
-/// Extracts one shell and brings it back from the anisotropic frame, with measures
-/// recomputed from the output triangles.
+/// Extracts one shell, brings it back from the anisotropic frame, flags the bodies at the
+/// model's extent (`reach`), leaves out those under the volume floor, simplifies the rest
+/// and takes their measures and quality from the output triangles.
 fn shell(
     data: &Classified,
     threshold: f64,
     how: &Extraction,
+    reach: Option<&crate::field::Field>,
     progress: &dyn Progress,
 ) -> Result<(Shell, Filtered), ContourError> {
     let mut shell = match how.method {
@@ -190,16 +195,11 @@ fn shell(
             let q = how.frame.inverse.map_or(*p, |m| m * *p);
             *p = q.as_vec3().as_dvec3();
         }
-        body.volume = measure::volume(&body.positions, &body.triangles);
-        body.area = measure::area(&body.positions, &body.triangles);
-        body.bbox = measure::bbox(&body.positions);
     }
-    shell.quality = measure::quality(
-        shell
-            .bodies
-            .iter()
-            .map(|b| (b.positions.as_slice(), b.triangles.as_slice())),
-    );
+    if let Some(field) = reach {
+        model::flag_truncated(&mut shell, field);
+    }
+    measure_bodies(&mut shell);
     let mut filtered = Filtered::default();
     if let Some(mut min_volume) = how.min_volume {
         if how.default_floor {
@@ -215,7 +215,60 @@ fn shell(
             keep
         });
     }
+    // Simplified after the filter: which bodies are kept is decided on the surfaces as
+    // extracted, and no time goes into bodies left out.
+    if let Some(tolerance) = how.simplify {
+        filtered.simplified = Some(simplify_bodies(&mut shell, tolerance, progress)?);
+        measure_bodies(&mut shell);
+    }
+    shell.quality = measure::quality(
+        shell
+            .bodies
+            .iter()
+            .map(|b| (b.positions.as_slice(), b.triangles.as_slice())),
+    );
     Ok((shell, filtered))
+}
+
+/// Takes every body's volume, area and bounds from its triangles.
+fn measure_bodies(shell: &mut Shell) {
+    for body in &mut shell.bodies {
+        body.volume = measure::volume(&body.positions, &body.triangles);
+        body.area = measure::area(&body.positions, &body.triangles);
+        body.bbox = measure::bbox(&body.positions);
+    }
+}
+
+/// Simplifies every body of `shell` within `tolerance` (in parallel), keeping each closed,
+/// oriented and of its volume (`dmt::simplify`); returns what was done.
+fn simplify_bodies(
+    shell: &mut Shell,
+    tolerance: f64,
+    progress: &dyn Progress,
+) -> Result<Simplification, ContourError> {
+    use rayon::prelude::*;
+    let mut done = Simplification {
+        tolerance,
+        largest_offset: 0.0,
+        vertices_before: shell.bodies.iter().map(|b| b.positions.len()).sum(),
+        triangles_before: shell.bodies.iter().map(|b| b.triangles.len()).sum(),
+    };
+    let limits = dmt::simplify::Limits::new(tolerance);
+    let cancelled = || progress.is_cancelled();
+    let offsets: Option<Vec<f64>> = shell
+        .bodies
+        .par_iter_mut()
+        .map(|body| {
+            let out =
+                dmt::simplify::simplify(&body.positions, &body.triangles, &limits, &cancelled)?;
+            body.positions = out.positions;
+            body.triangles = out.triangles;
+            Some(out.offset)
+        })
+        .collect();
+    let offsets = offsets.ok_or(ContourError::Cancelled)?;
+    done.largest_offset = offsets.iter().map(|o| o.abs()).fold(0.0, f64::max);
+    Ok(done)
 }
 
 /// One shell per threshold, in order, reporting each as its part of the contour stage.
@@ -367,11 +420,9 @@ impl Prepared {
         how: &Extraction,
         progress: &dyn Progress,
     ) -> Result<(Shell, Filtered), ContourError> {
-        let (mut shell, filtered) = shell(&self.data, self.levels[index], how, progress)?;
+        let reach = self.model.as_ref().map(|(field, _)| field);
+        let (mut shell, filtered) = shell(&self.data, self.levels[index], how, reach, progress)?;
         shell.threshold = thresholds[index];
-        if let Some((field, _)) = &self.model {
-            model::flag_truncated(&mut shell, field);
-        }
         Ok((shell, filtered))
     }
 }
@@ -490,6 +541,10 @@ pub fn run(
         min_volume: request.min_volume,
         default_floor: false,
         frame: Frame::new(request.anisotropy),
+        simplify: match request.simplify {
+            Simplify::Tolerance(t) => Some(t),
+            Simplify::Default | Simplify::Off => None,
+        },
     };
     let samples = result_samples(&request.source);
     let origin = samples.origin;
@@ -509,6 +564,13 @@ pub fn run(
         how.min_volume = Some(model::finest_cell_volume(&m.infill));
         how.default_floor = true;
     }
+    // A model's surfaces carry the finest infill step everywhere: by default they are
+    // simplified within a share of it.
+    if request.simplify == Simplify::Default
+        && let Some((_, m)) = &prepared.model
+    {
+        how.simplify = Some(model::default_simplify_tolerance(&m.infill));
+    }
     let (shells, filtered) = prepared_shells(&prepared, &thresholds, &how, progress)?;
     // The report integrates grades: back from the model's transform, once the shells are cut.
     raw_scale(&mut prepared);
@@ -518,7 +580,11 @@ pub fn run(
     let mut shell_summaries: Vec<ShellSummary> = shells
         .iter()
         .zip(&filtered)
-        .map(|(s, f)| summary::shell_summary(s, f.bodies, f.volume, origin))
+        .map(|(s, f)| {
+            let mut summary = summary::shell_summary(s, f.bodies, f.volume, origin);
+            summary.simplified = f.simplified;
+            summary
+        })
         .collect();
     let mut warnings = match &request.source {
         Source::Grid(g) => g.volume.warnings.clone(),

@@ -143,6 +143,21 @@ pub(super) fn finest_cell_volume(stats: &InfillStats) -> f64 {
     stats.finest_step.iter().product()
 }
 
+/// The default simplification tolerance on a model's surfaces, as a share of its finest
+/// infill step (the smallest of the three axes'): see docs/field.md, *Simplifying the
+/// surfaces*.
+pub const SIMPLIFY_SHARE: f64 = 0.25;
+
+/// The default simplification tolerance of a model whose infill reached `stats`.
+pub(super) fn default_simplify_tolerance(stats: &InfillStats) -> f64 {
+    SIMPLIFY_SHARE
+        * stats
+            .finest_step
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min)
+}
+
 impl From<field::FieldError> for ContourError {
     fn from(e: field::FieldError) -> Self {
         match e {

@@ -230,6 +230,21 @@ pub struct ContourRequest {
     pub report: super::ReportRequest,
     /// The values DMT contours: the samples' linear interpolation or the model.
     pub interpolant: Interpolant,
+    /// Whether and how far the bodies are simplified (`dmt::simplify`).
+    pub simplify: Simplify,
+}
+
+/// The simplification a request asks for.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Simplify {
+    /// A model's surfaces within a share of its finest infill step
+    /// ([`super::model::SIMPLIFY_SHARE`]); the linear interpolant's and grids' not at all.
+    #[default]
+    Default,
+    /// Every triangle as extracted.
+    Off,
+    /// Within this distance (input units, positive).
+    Tolerance(f64),
 }
 
 impl ContourRequest {
@@ -247,6 +262,7 @@ impl ContourRequest {
             min_volume: None,
             relax: dmt::relax::DEFAULT_SWEEPS,
             report: super::ReportRequest::default(),
+            simplify: Simplify::Default,
         }
     }
 
@@ -361,6 +377,9 @@ pub struct ContourOptions {
     pub max_samples: Option<u32>,
     /// Most samples of one hole in one kriging block.
     pub max_per_hole: Option<u32>,
+    /// Simplification tolerance, input units: 0 keeps every triangle; absent, a model's
+    /// surfaces are simplified within a quarter of its finest infill step.
+    pub simplify: Option<f64>,
 }
 
 impl ContourOptions {
@@ -675,6 +694,17 @@ impl ContourOptions {
             Some(r) => r as usize,
             None => dmt::relax::DEFAULT_SWEEPS,
         };
+        let simplify = match self.simplify {
+            None => Simplify::Default,
+            Some(0.0) => Simplify::Off,
+            Some(t) if t.is_finite() && t > 0.0 => Simplify::Tolerance(t),
+            Some(_) => {
+                return Err(OptionError::new(
+                    "simplify",
+                    "must be a finite number >= 0 (0 keeps every triangle)",
+                ));
+            }
+        };
         Ok(ContourRequest {
             source,
             thresholds,
@@ -686,6 +716,7 @@ impl ContourOptions {
             relax,
             report,
             interpolant,
+            simplify,
         })
     }
 }

@@ -50,6 +50,22 @@ pub struct ShellSummary {
     /// The shell's resource: the sums over its bodies (units in `Summary::report.units`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub resource: Option<BodyResource>,
+    /// The simplification's tolerance and what the bodies held before it (absent when the
+    /// shell was not simplified).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub simplified: Option<Simplification>,
+}
+
+/// What a shell's simplification did: the largest distance allowed between a removed
+/// vertex and the surface kept (input units), the largest distance a body's vertices were
+/// then moved along their normals to give it back its volume, and the counts before it
+/// (after it: `quality.vertices` and `quality.triangles`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Simplification {
+    pub tolerance: f64,
+    pub largest_offset: f64,
+    pub vertices_before: usize,
+    pub triangles_before: usize,
 }
 
 /// The volume range that brackets the answer when some samples are "don't know".
@@ -127,5 +143,6 @@ pub(super) fn shell_summary(
         filtered_volume,
         volume_range: None,
         resource: None,
+        simplified: None,
     }
 }

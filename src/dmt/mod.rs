@@ -13,6 +13,7 @@ pub mod measure;
 pub mod mt;
 pub mod place;
 pub mod relax;
+pub mod simplify;
 
 use std::borrow::Cow;
 

@@ -134,6 +134,7 @@ const TITLES: &[(&str, &str)] = &[
     ("azimuth", "Anisotropy azimuth"),
     ("dip", "Anisotropy dip"),
     ("min_volume", "Minimum body volume"),
+    ("simplify", "Simplification tolerance"),
     ("relax", "Shape relaxation sweeps"),
     ("density", "Density"),
     ("density_column", "Density column"),

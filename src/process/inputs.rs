@@ -83,6 +83,12 @@ pub struct ProcessInputs {
     /// Bodies with a smaller volume (input units cubed) are left out.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub min_volume: Option<f64>,
+    /// Simplification tolerance (input units): removed vertices stay within it of the
+    /// surface kept, bodies stay closed. 0 keeps every triangle; default: a model's surfaces
+    /// within a quarter of its finest infill step, the linear interpolant's and grids' not.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = 0)]
+    pub simplify: Option<f64>,
     /// Sweeps of the shape relaxation of IbC and CoI vertices (0 to 50; default 3; 0 keeps
     /// the paper's positions).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -322,6 +328,7 @@ impl ProcessInputs {
             resolution: self.resolution,
             max_samples: self.max_samples,
             max_per_hole: self.max_per_hole,
+            simplify: self.simplify,
         }
     }
 
