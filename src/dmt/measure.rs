@@ -82,7 +82,13 @@ pub fn bbox(positions: &[DVec3]) -> [DVec3; 2] {
 
 /// Smallest interior angle of a triangle, in degrees (0 for a degenerate one).
 pub fn min_angle_deg(a: DVec3, b: DVec3, c: DVec3) -> f64 {
-    // The smallest angle is opposite the shortest edge.
+    let (u, v) = smallest_angle_sides(a, b, c);
+    u.cross(v).length().atan2(u.dot(v)).to_degrees()
+}
+
+/// The two sides from the corner of a triangle's smallest angle: the one opposite its
+/// shortest edge.
+pub fn smallest_angle_sides(a: DVec3, b: DVec3, c: DVec3) -> (DVec3, DVec3) {
     let (ab, bc, ca) = (
         (b - a).length_squared(),
         (c - b).length_squared(),
@@ -95,8 +101,7 @@ pub fn min_angle_deg(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     } else {
         (c, a, b)
     };
-    let (u, v) = (p - apex, q - apex);
-    u.cross(v).length().atan2(u.dot(v)).to_degrees()
+    (p - apex, q - apex)
 }
 
 /// Triangle quality over several meshes.

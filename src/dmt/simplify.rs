@@ -800,19 +800,7 @@ impl<'a> Work<'a> {
 /// The cosine of a triangle's smallest angle (the one opposite its shortest edge); 1 for a
 /// degenerate triangle.
 fn smallest_angle_cos(a: DVec3, b: DVec3, c: DVec3) -> f64 {
-    let (ab, bc, ca) = (
-        (b - a).length_squared(),
-        (c - b).length_squared(),
-        (a - c).length_squared(),
-    );
-    let (apex, p, q) = if bc <= ab && bc <= ca {
-        (a, b, c)
-    } else if ca <= ab {
-        (b, c, a)
-    } else {
-        (c, a, b)
-    };
-    let (x, y) = (p - apex, q - apex);
+    let (x, y) = super::measure::smallest_angle_sides(a, b, c);
     let norms = (x.length_squared() * y.length_squared()).sqrt();
     if norms > 0.0 { x.dot(y) / norms } else { 1.0 }
 }
