@@ -12,6 +12,8 @@ and truth.json (truth.py: the lenses, the exact volume and area, the noise). Lay
   two_lens        two parallel lenses one above the other, ~33k assays
   lens_flag       lens's holes and noise, value 1 where the noisy grade >= 5 else 0
   two_lens_flag   the same for two_lens
+  two_dips        two lenses side by side along strike, the second turned 40-90 degrees in
+                  dip direction and 20-35 in dip (a field whose orientation varies), ~33k assays
   big             one lens 1.5 times larger drilled 25 m x 20 m: ~300k assays
 
 Invariant: a layout is a pure function of (layout, seed): the same bytes on every run.
@@ -41,10 +43,12 @@ LAYOUTS = {
     "two_lens": dict(lenses=2, section=50.0, spacing=40.0, scale=1.0, assays=33_000, flag=False),
     "lens_flag": dict(base="lens", flag=True),
     "two_lens_flag": dict(base="two_lens", flag=True),
+    "two_dips": dict(lenses=2, section=50.0, spacing=40.0, scale=1.0, assays=33_000, flag=False,
+                     side=True),
     "big": dict(lenses=1, section=25.0, spacing=20.0, scale=1.5, assays=300_000, flag=False),
 }
 MAIN_LAYOUTS = ["lens", "two_lens", "lens_flag", "two_lens_flag"]
-LAYOUT_INDEX = {"lens": 1, "two_lens": 2, "big": 3}
+LAYOUT_INDEX = {"lens": 1, "two_lens": 2, "big": 3, "two_dips": 4}
 
 
 def topography(x, y):
@@ -52,8 +56,9 @@ def topography(x, y):
     return SURFACE + 15.0 * np.sin((x - EASTING) / 310.0) + 10.0 * np.cos((y - NORTHING) / 260.0)
 
 
-def make_lenses(rng, count: int, scale: float) -> tuple[list[Lens], float]:
-    """The lenses (first one random in orientation and size) and the background grade."""
+def make_lenses(rng, count: int, scale: float, side: bool = False) -> tuple[list[Lens], float]:
+    """The lenses (first one random in orientation and size) and the background grade. With
+    `side`, the second lens lies beside the first along its strike, turned."""
     background = float(rng.uniform(0.5, 1.0))
     dip = float(rng.uniform(25.0, 75.0))
     dip_direction = float(rng.uniform(0.0, 360.0))
@@ -69,8 +74,20 @@ def make_lenses(rng, count: int, scale: float) -> tuple[list[Lens], float]:
     centre = np.array([EASTING + rng.uniform(-300, 300), NORTHING + rng.uniform(-300, 300), 0.0])
     lenses = []
     offset = np.zeros(3)
+    orientations = [(dip, dip_direction, pitch)] * len(axes)
+    if side and count == 2:
+        turn = float(rng.uniform(40.0, 90.0)) * float(rng.choice([-1.0, 1.0]))
+        steeper = float(rng.uniform(20.0, 35.0)) * (1.0 if dip < 50.0 else -1.0)
+        orientations[1] = (dip + steeper, (dip_direction + turn) % 360.0,
+                           float(rng.uniform(-60.0, 60.0)))
     for i, (la, lb, lc) in enumerate(axes):
-        if i == 1:
+        if i == 1 and side:
+            # Beside the first lens along its strike (horizontal), farther than both major
+            # semi-axes: the bodies are disjoint whatever their orientations.
+            dd = math.radians(dip_direction)
+            strike_h = np.array([-math.cos(dd), math.sin(dd), 0.0])
+            offset = (axes[0][0] + la + rng.uniform(30.0, 60.0)) * strike_h
+        elif i == 1:
             gap = rng.uniform(25.0, 60.0)
             # Below the first lens (e3 points up or down; go down in elevation) and shifted
             # along strike: slabs |w - w_i| <= c_i do not overlap, so the bodies are disjoint.
@@ -79,8 +96,10 @@ def make_lenses(rng, count: int, scale: float) -> tuple[list[Lens], float]:
         core = float(rng.uniform(8.0, 15.0))
         q = (GRADE_THRESHOLD - background) / (core - background)
         halo = 1.0 / math.sqrt(1.0 - math.sqrt(q))
-        lenses.append(Lens(centre=(centre + offset).tolist(), dip=dip, dip_direction=dip_direction,
-                           pitch=pitch, semi_axes=[la, lb, lc], core_grade=core, halo_radius=halo))
+        l_dip, l_dd, l_pitch = orientations[i]
+        lenses.append(Lens(centre=(centre + offset).tolist(), dip=l_dip, dip_direction=l_dd,
+                           pitch=l_pitch, semi_axes=[la, lb, lc], core_grade=core,
+                           halo_radius=halo))
     # Bury the lenses: the highest point of any lens 80-200 m below the surface.
     top = max(l.bounds()[1][2] for l in lenses)
     ground = float(topography(np.array(centre[0]), np.array(centre[1])))
@@ -90,7 +109,7 @@ def make_lenses(rng, count: int, scale: float) -> tuple[list[Lens], float]:
     return lenses, background
 
 
-def plan_holes(rng, lenses: list[Lens], section: float, spacing: float):
+def plan_holes(rng, lenses: list[Lens], section: float, spacing: float, side: bool = False):
     """Candidate section holes: collars every `spacing` along section lines `section` apart
     across strike, drilled against the dip at -50..-70. Returns, per candidate, (collar xy,
     azimuth, dip, length to 40-120 m past the lenses it pierces, reach): reach is the
@@ -102,6 +121,8 @@ def plan_holes(rng, lenses: list[Lens], section: float, spacing: float):
     dip_h = np.array([math.sin(dd), math.cos(dd)])
     centre = np.mean([l.centre for l in lenses], axis=0)
     a_max = max(l.semi_axes[0] for l in lenses) + 150.0
+    if side:  # lenses beside each other: sections over both
+        a_max += max(abs(float((np.asarray(l.centre[:2]) - centre[:2]) @ strike_h)) for l in lenses)
     n_sec = math.ceil(2 * a_max / section)
     phase = rng.uniform(0, spacing)
     holes = []
@@ -181,7 +202,7 @@ def build(layout: str, seed: int):
     """(truth, collars, surveys, intervals, noisy grades) of a grade layout."""
     spec = LAYOUTS[layout]
     rng = np.random.default_rng([seed, LAYOUT_INDEX[layout]])
-    lenses, background = make_lenses(rng, spec["lenses"], spec["scale"])
+    lenses, background = make_lenses(rng, spec["lenses"], spec["scale"], spec.get("side", False))
     truth = Truth(layout=layout, seed=seed, variable="zn", threshold=GRADE_THRESHOLD,
                   grade_threshold=GRADE_THRESHOLD, background=background, noise_sigma_ln=0.0,
                   nugget_share=float(rng.uniform(0.2, 0.3)), lenses=lenses)
@@ -189,7 +210,7 @@ def build(layout: str, seed: int):
     # Step out from the lenses (reach from 1.1 lens radii up) until the layout has the
     # assays wanted.
     candidates = plan_holes(np.random.default_rng([seed, LAYOUT_INDEX[layout], 2]), lenses,
-                            spec["section"], spec["spacing"])
+                            spec["section"], spec["spacing"], spec.get("side", False))
     by_reach = sorted(range(len(candidates)), key=lambda i: candidates[i][4])
     metres, chosen = 0.0, []
     for i in by_reach:

@@ -97,6 +97,8 @@ pub struct MultipartInputs {
     /// `rules` (default) or `cross-validation`: how the orientation and ranges not given
     /// are found.
     shape_from: Option<String>,
+    /// `global` (default) or `varying`: whether the plane may turn where the ore's does.
+    orientation_field: Option<String>,
     top_cut: Option<f64>,
     /// Finest infill step along the major axis.
     resolution: Option<f64>,
@@ -425,11 +427,12 @@ fn plain_reason(reason: &str, sent: Option<&Value>) -> String {
         .replace("expected f64", "expected a number")
 }
 
-const TEXT_FIELDS: [&str; 14] = [
+const TEXT_FIELDS: [&str; 15] = [
     "interpolant",
     "transform",
     "flag_field",
     "shape_from",
+    "orientation_field",
     "samples_csv",
     "collars_csv",
     "surveys_csv",

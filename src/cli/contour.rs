@@ -177,6 +177,16 @@ pub struct Args {
     #[arg(long, value_name = "NAME", help_heading = MODEL)]
     pub shape_from: Option<String>,
 
+    /// Whether the ore's plane may turn in space: global (default: one plane everywhere) or
+    /// varying (where an anchor's own plane lies 15+ degrees from the model's and fits its
+    /// pairs 15 % better, the kriging blocks near it turn to it; the infill and the model's
+    /// extent keep the global frame). The anchors (the variogram map drawn again around
+    /// points one semi-major range apart over the ore) are in the summary's local_planes
+    /// either way, so a run shows where one plane does not fit. Not drawn when the
+    /// orientation is given or found by cross-validation.
+    #[arg(long, value_name = "NAME", help_heading = MODEL)]
+    pub orientation_field: Option<String>,
+
     /// Cap values above this before the fit (a top-cut of outliers).
     #[arg(long, value_name = "VALUE", help_heading = MODEL)]
     pub top_cut: Option<f64>,
@@ -261,6 +271,7 @@ impl Args {
             transform: self.transform.clone(),
             flag_field: self.flag_field.clone(),
             shape_from: self.shape_from.clone(),
+            orientation_field: self.orientation_field.clone(),
             top_cut: self.top_cut,
             resolution: self.resolution,
             max_samples: self.max_samples,

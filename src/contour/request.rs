@@ -11,7 +11,9 @@ use glam::{DMat3, DVec3};
 use serde::Serialize;
 
 use crate::dmt::{self, Method, Placement};
-use crate::field::{FlagField, ModelOptions, Neighbourhood, Orientation, ShapeFrom, TransformKind};
+use crate::field::{
+    FlagField, ModelOptions, Neighbourhood, Orientation, OrientationField, ShapeFrom, TransformKind,
+};
 use crate::wells::SampleSet;
 
 /// How the values between the samples are made.
@@ -370,6 +372,8 @@ pub struct ContourOptions {
     /// How the orientation and ranges not given are found: `rules` (default) or
     /// `cross-validation`.
     pub shape_from: Option<String>,
+    /// Whether the plane may turn in space: `global` (default) or `varying`.
+    pub orientation_field: Option<String>,
     pub top_cut: Option<f64>,
     /// Finest infill step along the major axis, input units.
     pub resolution: Option<f64>,
@@ -522,6 +526,7 @@ impl ContourOptions {
             ("transform", self.transform.is_some()),
             ("flag_field", self.flag_field.is_some()),
             ("shape_from", self.shape_from.is_some()),
+            ("orientation_field", self.orientation_field.is_some()),
             ("top_cut", self.top_cut.is_some()),
             ("resolution", self.resolution.is_some()),
             ("max_samples", self.max_samples.is_some()),
@@ -602,6 +607,12 @@ impl ContourOptions {
                 .parse::<ShapeFrom>()
                 .map_err(|e| OptionError::new("shape_from", e))?,
         };
+        let orientation_field = match self.orientation_field.as_deref() {
+            None => OrientationField::default(),
+            Some(f) => f
+                .parse::<OrientationField>()
+                .map_err(|e| OptionError::new("orientation_field", e))?,
+        };
         let top_cut = match self.top_cut {
             Some(c) if !c.is_finite() => {
                 return Err(OptionError::new("top_cut", "must be a finite number"));
@@ -634,6 +645,7 @@ impl ContourOptions {
             neighbourhood,
             flag_field,
             shape_from,
+            orientation_field,
         })
     }
 

@@ -58,25 +58,54 @@ fn bin_of(u: DVec3) -> usize {
     e * AZIMUTH_BINS + a
 }
 
-impl DirectionBins {
-    /// The bins of the pairs around the ore samples (values at or above `level`), holes
-    /// `hole_spacing` apart; `None` when fewer than two holes hold ore.
-    pub fn new(samples: &Samples, level: f64, hole_spacing: f64) -> Option<DirectionBins> {
+/// The samples hashed for pairing: cells of the band's outer radius.
+pub struct PairGrid<'a> {
+    samples: &'a Samples,
+    level: f64,
+    band: (f64, f64),
+    grid: CellMap<I64Vec3, Vec<u32>>,
+}
+
+impl<'a> PairGrid<'a> {
+    /// The grid of `samples` for pairs around the ore (values at or above `level`), holes
+    /// `hole_spacing` apart; `None` when the band is empty or not a number.
+    pub fn new(samples: &'a Samples, level: f64, hole_spacing: f64) -> Option<PairGrid<'a>> {
         let (lo, hi) = (BAND.0 * hole_spacing, BAND.1 * hole_spacing);
-        let ore: Vec<usize> = (0..samples.values.len())
-            .filter(|&i| samples.values[i] >= level)
-            .collect();
+        if hi.is_nan() || hi <= 0.0 {
+            return None;
+        }
+        let mut grid: CellMap<I64Vec3, Vec<u32>> = CellMap::default();
+        for (i, p) in samples.points.iter().enumerate() {
+            grid.entry((*p / hi).floor().as_i64vec3())
+                .or_default()
+                .push(i as u32);
+        }
+        Some(PairGrid {
+            samples,
+            level,
+            band: (lo, hi),
+            grid,
+        })
+    }
+
+    /// The ore samples, in input order.
+    pub fn ore(&self) -> Vec<usize> {
+        (0..self.samples.values.len())
+            .filter(|&i| self.samples.values[i] >= self.level)
+            .collect()
+    }
+
+    /// The bins of the pairs around the ore samples `ore` (at most [`MAX_ORE_SAMPLES`] of
+    /// them, evenly spaced); `None` when fewer than two holes hold them.
+    pub fn bins(&self, ore: &[usize]) -> Option<DirectionBins> {
+        let samples = self.samples;
         let mut ore_holes: Vec<u32> = ore.iter().map(|&i| samples.holes[i]).collect();
         ore_holes.sort_unstable();
         ore_holes.dedup();
-        if ore_holes.len() < 2 || hi.is_nan() || hi <= 0.0 {
+        if ore_holes.len() < 2 {
             return None;
         }
-        let cell = |p: DVec3| (p / hi).floor().as_i64vec3();
-        let mut grid: CellMap<I64Vec3, Vec<u32>> = CellMap::default();
-        for (i, p) in samples.points.iter().enumerate() {
-            grid.entry(cell(*p)).or_default().push(i as u32);
-        }
+        let (lo, hi) = self.band;
         let mut bins = DirectionBins {
             sum: vec![0.0; AZIMUTH_BINS * ELEVATION_BINS],
             count: vec![0.0; AZIMUTH_BINS * ELEVATION_BINS],
@@ -85,11 +114,11 @@ impl DirectionBins {
         let stride = ore.len().div_ceil(MAX_ORE_SAMPLES).max(1);
         for &i in ore.iter().step_by(stride) {
             let p = samples.points[i];
-            let c = cell(p);
+            let c = (p / hi).floor().as_i64vec3();
             for dz in -1..=1 {
                 for dy in -1..=1 {
                     for dx in -1..=1 {
-                        let Some(list) = grid.get(&(c + I64Vec3::new(dx, dy, dz))) else {
+                        let Some(list) = self.grid.get(&(c + I64Vec3::new(dx, dy, dz))) else {
                             continue;
                         };
                         for &j in list {
@@ -103,7 +132,7 @@ impl DirectionBins {
                                 continue;
                             }
                             let b = bin_of(d / length);
-                            let waste = samples.values[j] < level;
+                            let waste = samples.values[j] < self.level;
                             bins.sum[b] += if waste { 0.5 } else { 0.0 };
                             bins.count[b] += 1.0;
                         }
@@ -112,6 +141,15 @@ impl DirectionBins {
             }
         }
         Some(bins)
+    }
+}
+
+impl DirectionBins {
+    /// The bins of the pairs around the ore samples (values at or above `level`), holes
+    /// `hole_spacing` apart; `None` when fewer than two holes hold ore.
+    pub fn new(samples: &Samples, level: f64, hole_spacing: f64) -> Option<DirectionBins> {
+        let grid = PairGrid::new(samples, level, hole_spacing)?;
+        grid.bins(&grid.ore())
     }
 
     /// Mean semivariogram of the pairs within the tolerance of the plane normal to

@@ -107,6 +107,16 @@ impl Ellipsoid {
     pub fn from_unit(&self, u: DVec3) -> DVec3 {
         self.from_unit * u
     }
+
+    /// The matrix of [`Ellipsoid::to_unit`].
+    pub fn to_unit_matrix(&self) -> DMat3 {
+        self.to_unit
+    }
+
+    /// The matrix of [`Ellipsoid::from_unit`].
+    pub fn from_unit_matrix(&self) -> DMat3 {
+        self.from_unit
+    }
 }
 
 #[cfg(test)]

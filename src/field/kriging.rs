@@ -18,10 +18,12 @@ use std::collections::HashMap;
 use foldhash::fast::FixedState;
 use std::sync::Mutex;
 
-use glam::{DVec3, IVec3};
+use glam::{DMat3, DVec3, IVec3};
 use rayon::prelude::*;
 
+use super::estimate::principal_axes;
 use super::kernel::Spheroidal;
+use super::local::LocalFrames;
 
 /// Hash maps keyed by lattice cells: a fixed fast hash (the keys are ours, not an
 /// adversary's; SipHash took a fifth of a run's time).
@@ -53,9 +55,13 @@ impl Default for Neighbourhood {
     }
 }
 
-/// One block's solved system: its samples (range units) and dual weights.
+/// One block's solved system: its samples (range units, in its own frame when it has
+/// one) and dual weights.
 #[derive(Debug)]
 struct Block {
+    /// The map from the global range units to the block's, where the orientation turns
+    /// (`local.rs`).
+    frame: Option<DMat3>,
     points: Vec<DVec3>,
     alpha: Vec<f64>,
     mu: f64,
@@ -210,6 +216,7 @@ pub struct BlockKriging {
     mean: f64,
     neighbourhood: Neighbourhood,
     grid: CellGrid,
+    frames: Option<LocalFrames>,
     blocks: Mutex<CellMap<IVec3, Option<Block>>>,
 }
 
@@ -234,8 +241,16 @@ impl BlockKriging {
             mean,
             neighbourhood,
             grid,
+            frames: None,
             blocks: Mutex::new(CellMap::default()),
         }
+    }
+
+    /// The same model with each block's anisotropy turned by `frames` (before any block
+    /// is solved).
+    pub fn with_frames(mut self, frames: Option<LocalFrames>) -> Self {
+        self.frames = frames;
+        self
     }
 
     /// How many blocks have been solved.
@@ -349,6 +364,7 @@ impl BlockKriging {
 
     #[inline]
     fn predict(&self, block: &Block, q: DVec3) -> f64 {
+        let q = block.frame.map_or(q, |m| m * q);
         let mut sum = 0.0;
         for (p, a) in block.points.iter().zip(&block.alpha) {
             sum += a * self.kernel.rho_sq(p.distance_squared(q));
@@ -356,12 +372,19 @@ impl BlockKriging {
         block.mu + self.c0 * sum
     }
 
-    /// The samples of the block at lattice node `key`: nearest to its centre first, at most
-    /// `max_per_hole` per hole, within the radius.
-    fn neighbours(&self, key: IVec3) -> Vec<u32> {
+    /// The samples of the block at lattice node `key`: nearest to its centre first (in the
+    /// block's `frame` when it has one), at most `max_per_hole` per hole, within the
+    /// radius.
+    fn neighbours(&self, key: IVec3, frame: Option<DMat3>) -> Vec<u32> {
         let centre = key.as_dvec3() * BLOCK_SPACING;
         let n = self.neighbourhood;
-        let max_span = (n.radius / BLOCK_SPACING).ceil() as i32;
+        // The frame's unit ball reaches this far in the global units.
+        let stretch = frame.map_or(1.0, |m| {
+            let inverse = m.inverse();
+            principal_axes(inverse.transpose() * inverse).0[0].sqrt()
+        });
+        let max_span = (n.radius * stretch / BLOCK_SPACING).ceil() as i32;
+        let enough = if frame.is_some() { 4 } else { 2 } * n.max_samples;
         let mut candidates = Vec::new();
         // Widen the search ring by ring until it holds enough samples.
         let mut span = 1;
@@ -371,15 +394,19 @@ impl BlockKriging {
                 key + IVec3::splat(span - 1),
                 &mut candidates,
             );
-            if candidates.len() >= n.max_samples * 2 || span >= max_span {
+            if candidates.len() >= enough || span >= max_span {
                 break;
             }
             span += 1;
         }
         let r2 = n.radius * n.radius;
+        let distance = |p: DVec3| match frame {
+            Some(m) => (m * (p - centre)).length_squared(),
+            None => p.distance_squared(centre),
+        };
         let mut ranked: Vec<(f64, u32)> = candidates
             .iter()
-            .map(|&i| (self.points[i as usize].distance_squared(centre), i))
+            .map(|&i| (distance(self.points[i as usize]), i))
             .filter(|(d, _)| *d <= r2)
             .collect();
         ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
@@ -401,11 +428,21 @@ impl BlockKriging {
 
     /// Solves the ordinary-kriging system of one block in dual form.
     fn solve_block(&self, key: IVec3) -> Option<Block> {
-        let chosen = self.neighbours(key);
+        let frame = self
+            .frames
+            .as_ref()
+            .and_then(|f| f.map_at(key.as_dvec3() * BLOCK_SPACING));
+        let chosen = self.neighbours(key, frame);
         if chosen.is_empty() {
             return None;
         }
-        let points: Vec<DVec3> = chosen.iter().map(|&i| self.points[i as usize]).collect();
+        let points: Vec<DVec3> = chosen
+            .iter()
+            .map(|&i| {
+                let p = self.points[i as usize];
+                frame.map_or(p, |m| m * p)
+            })
+            .collect();
         let z: Vec<f64> = chosen.iter().map(|&i| self.values[i as usize]).collect();
         let n = points.len();
         // K = c0 * rho + (1 - c0) * I, plus a relative jitter for coincident samples.
@@ -424,7 +461,12 @@ impl BlockKriging {
         let k1 = solve(l, n, &vec![1.0; n]);
         let mu = kz.iter().sum::<f64>() / k1.iter().sum::<f64>();
         let alpha = kz.iter().zip(&k1).map(|(a, b)| a - mu * b).collect();
-        Some(Block { points, alpha, mu })
+        Some(Block {
+            frame,
+            points,
+            alpha,
+            mu,
+        })
     }
 }
 

@@ -17,6 +17,7 @@ pub mod frame;
 pub mod infill;
 pub mod kernel;
 pub mod kriging;
+pub mod local;
 pub mod transform;
 pub mod tune;
 
@@ -53,6 +54,35 @@ pub struct ModelOptions {
     pub flag_field: FlagField,
     /// How the orientation and ranges are found when they are not given.
     pub shape_from: ShapeFrom,
+    /// Whether the plane may turn in space (`local.rs`).
+    pub orientation_field: OrientationField,
+}
+
+/// Whether the ore's plane may turn in space.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum OrientationField {
+    /// One plane everywhere (the anchors are still drawn and reported).
+    #[default]
+    Global,
+    /// The kriging blocks turn to the planes of the anchors that fit their pairs clearly
+    /// better (`local.rs`); the infill lattice and the model's extent keep the global
+    /// frame (docs/field.md).
+    Varying,
+}
+
+impl std::str::FromStr for OrientationField {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "varying" => Ok(OrientationField::Varying),
+            "global" => Ok(OrientationField::Global),
+            other => Err(format!(
+                "unknown orientation field {other:?}: expected varying or global"
+            )),
+        }
+    }
 }
 
 /// How the orientation and ranges are found when a request does not give them.
@@ -122,6 +152,7 @@ impl Default for ModelOptions {
             neighbourhood: Neighbourhood::default(),
             flag_field: FlagField::default(),
             shape_from: ShapeFrom::default(),
+            orientation_field: OrientationField::default(),
         }
     }
 }
@@ -171,6 +202,9 @@ pub struct FieldParams {
     pub shape_from: ShapeFrom,
     /// The cross-validated candidates (planes and ranges), when they were searched.
     pub shape_search: Option<tune::ShapeSearch>,
+    pub orientation_field: OrientationField,
+    /// The anchors of orientations that vary in space (`local.rs`), when drawn.
+    pub local_planes: Option<local::LocalPlanes>,
     pub samples: usize,
     pub holes: usize,
 }
@@ -267,6 +301,17 @@ impl Field {
         } else {
             Vec::new()
         };
+        let local_planes = (!search
+            && matches!(orientation_source, Source::Intercepts | Source::Variogram))
+        .then(|| {
+            local::LocalPlanes::estimate(
+                &t,
+                transform.apply(level),
+                spacing.hole,
+                &Ellipsoid::new(orientation, ranges),
+            )
+        })
+        .flatten();
         let (transform, t, sill, nugget) = match contacts_cap(&t, ranges, options) {
             Some(cap) => {
                 let level = transform.apply(level);
@@ -322,6 +367,12 @@ impl Field {
             t.values.clone(),
             t.holes.clone(),
             options.neighbourhood,
+        )
+        .with_frames(
+            local_planes
+                .as_ref()
+                .filter(|_| options.orientation_field == OrientationField::Varying)
+                .and_then(|p| local::LocalFrames::new(p, ellipsoid)),
         );
         let params = FieldParams {
             kernel: "spheroidal".into(),
@@ -349,6 +400,8 @@ impl Field {
             intercepts: geometry,
             shape_from: options.shape_from,
             shape_search,
+            orientation_field: options.orientation_field,
+            local_planes,
             samples: t.values.len(),
             holes: holes.len(),
         };

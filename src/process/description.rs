@@ -149,6 +149,7 @@ const TITLES: &[(&str, &str)] = &[
     ("transform", "Value transform"),
     ("flag_field", "Flag field"),
     ("shape_from", "How the shape is found"),
+    ("orientation_field", "Orientations that vary in space"),
     ("top_cut", "Top-cut"),
     ("resolution", "Infill resolution"),
     ("max_samples", "Samples per kriging block"),

@@ -149,6 +149,10 @@ pub struct ProcessInputs {
     /// cross-validation).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shape_from: Option<String>,
+    /// `global` (default; one plane everywhere) or `varying` (the variogram map drawn
+    /// around anchors over the ore turns each kriging block's plane where the ore's turns).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub orientation_field: Option<String>,
     /// Values above this are capped to it before the fit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub top_cut: Option<f64>,
@@ -324,6 +328,7 @@ impl ProcessInputs {
             transform: self.transform.clone(),
             flag_field: self.flag_field.clone(),
             shape_from: self.shape_from.clone(),
+            orientation_field: self.orientation_field.clone(),
             top_cut: self.top_cut,
             resolution: self.resolution,
             max_samples: self.max_samples,

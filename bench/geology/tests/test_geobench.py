@@ -151,6 +151,19 @@ def test_two_lenses_are_disjoint():
     assert not np.any((r[0] <= 1) & (r[1] <= 1))
 
 
+def test_two_dips_lie_side_by_side_at_different_attitudes():
+    for seed in (1, 3):
+        truth, _, _, _, noisy = make_layouts.build("two_dips", seed)
+        rng = np.random.default_rng(0)
+        pts, _ = uniform_in_lenses(truth, 20000, rng)
+        r = [l.radius(pts) for l in truth.lenses]
+        assert not np.any((r[0] <= 1) & (r[1] <= 1))
+        normals = [l.rotation[2] for l in truth.lenses]
+        angle = np.degrees(np.arccos(abs(float(normals[0] @ normals[1]))))
+        assert angle > 20.0, angle
+        assert np.mean(np.asarray(noisy) >= 5.0) > 0.005  # the lenses are drilled
+
+
 # -- meshes and scoring -------------------------------------------------------------------
 
 def ellipsoid_body(truth: Truth, scale: float, level: int = 5, shift=(0.0, 0.0, 0.0)) -> Body:
