@@ -301,30 +301,22 @@ impl Field {
         } else {
             Vec::new()
         };
+        // Where the ore's plane turns (not when the plane is given or searched for).
         let local_planes = (!search
             && matches!(orientation_source, Source::Intercepts | Source::Variogram))
         .then(|| {
-            local::LocalPlanes::estimate(
-                &t,
-                transform.apply(level),
-                spacing.hole,
-                &Ellipsoid::new(orientation, ranges),
-            )
+            let global = Ellipsoid::new(orientation, ranges);
+            local::LocalPlanes::estimate(&t, transform.apply(level), spacing.hole, &global)
         })
         .flatten();
-        let (transform, t, sill, nugget) = match contacts_cap(&t, ranges, options) {
-            Some(cap) => {
-                let level = transform.apply(level);
-                let share = if sill > 0.0 { nugget / sill } else { 0.0 };
-                let values = contacts::signed_distances(&t, &holes, level, cap);
-                let t = Samples { values, ..t };
-                let (d_sill, _) = estimate::sill_and_nugget(&t, &holes);
-                let sill = options.sill.unwrap_or(d_sill);
-                let nugget = options.nugget.unwrap_or(share * sill);
-                (Transform::Contacts { level, cap }, t, sill, nugget)
-            }
-            None => (transform, t, sill, nugget),
-        };
+        let (transform, t, sill, nugget) = to_contacts(
+            t,
+            &holes,
+            (transform, level),
+            (sill, nugget),
+            ranges,
+            options,
+        );
         let nugget_share = if sill > 0.0 {
             (nugget / sill).clamp(0.0, 0.99)
         } else {
@@ -345,21 +337,17 @@ impl Field {
         } else {
             None
         };
-        let (orientation, ranges) = match &shape_search {
-            Some(s) if s.chosen != 0 => {
-                let c = s.candidates[s.chosen];
-                if c.orientation != orientation {
-                    orientation_source = Source::CrossValidation;
-                }
-                if c.ranges != ranges {
-                    range_source = Source::CrossValidation;
-                }
-                (c.orientation, c.ranges)
-            }
-            _ => (orientation, ranges),
-        };
+        let (orientation, ranges) = chosen_shape(
+            shape_search.as_ref(),
+            (orientation, ranges),
+            (&mut orientation_source, &mut range_source),
+        );
         let ellipsoid = Ellipsoid::new(orientation, ranges);
         let samples_unit: Vec<DVec3> = t.points.iter().map(|p| ellipsoid.to_unit(*p)).collect();
+        let frames = local_planes
+            .as_ref()
+            .filter(|_| options.orientation_field == OrientationField::Varying)
+            .and_then(|p| local::LocalFrames::new(p, ellipsoid));
         let kriging = kriging::BlockKriging::new(
             kernel,
             nugget_share,
@@ -368,12 +356,7 @@ impl Field {
             t.holes.clone(),
             options.neighbourhood,
         )
-        .with_frames(
-            local_planes
-                .as_ref()
-                .filter(|_| options.orientation_field == OrientationField::Varying)
-                .and_then(|p| local::LocalFrames::new(p, ellipsoid)),
-        );
+        .with_frames(frames);
         let params = FieldParams {
             kernel: "spheroidal".into(),
             order: kernel.order(),
@@ -536,6 +519,52 @@ fn plane_candidates(
         }
     }
     out
+}
+
+/// The orientation and ranges cross-validation chose, when it chose another candidate than
+/// the rules' (whose sources then become [`Source::CrossValidation`]).
+fn chosen_shape(
+    search: Option<&tune::ShapeSearch>,
+    (orientation, ranges): (Orientation, [f64; 3]),
+    (orientation_source, range_source): (&mut Source, &mut Source),
+) -> (Orientation, [f64; 3]) {
+    match search {
+        Some(s) if s.chosen != 0 => {
+            let c = s.candidates[s.chosen];
+            if c.orientation != orientation {
+                *orientation_source = Source::CrossValidation;
+            }
+            if c.ranges != ranges {
+                *range_source = Source::CrossValidation;
+            }
+            (c.orientation, c.ranges)
+        }
+        _ => (orientation, ranges),
+    }
+}
+
+/// The samples as signed distances to their contacts, with the sill and nugget that go
+/// with them, when they are 0/1 flags modelled by distance (`contacts_cap`); else as
+/// they are.
+fn to_contacts(
+    t: Samples,
+    holes: &[Vec<u32>],
+    (transform, level): (Transform, f64),
+    (sill, nugget): (f64, f64),
+    ranges: [f64; 3],
+    options: &ModelOptions,
+) -> (Transform, Samples, f64, f64) {
+    let Some(cap) = contacts_cap(&t, ranges, options) else {
+        return (transform, t, sill, nugget);
+    };
+    let level = transform.apply(level);
+    let share = if sill > 0.0 { nugget / sill } else { 0.0 };
+    let values = contacts::signed_distances(&t, holes, level, cap);
+    let t = Samples { values, ..t };
+    let (d_sill, _) = estimate::sill_and_nugget(&t, holes);
+    let sill = options.sill.unwrap_or(d_sill);
+    let nugget = options.nugget.unwrap_or(share * sill);
+    (Transform::Contacts { level, cap }, t, sill, nugget)
 }
 
 /// The cap of the signed distances when a flag is modelled by its contacts
