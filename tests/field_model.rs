@@ -540,6 +540,15 @@ fn model_options_are_refused_with_the_linear_interpolant_and_named() {
         ..ContourOptions::default()
     };
     assert_eq!(shape_from.check().unwrap_err().field, "shape_from");
+    let orientation_field = ContourOptions {
+        thresholds: vec![CUT],
+        orientation_field: Some("local".into()),
+        ..ContourOptions::default()
+    };
+    assert_eq!(
+        orientation_field.check().unwrap_err().field,
+        "orientation_field"
+    );
     let linear = ContourOptions {
         thresholds: vec![CUT],
         interpolant: Some("linear".into()),

@@ -179,8 +179,9 @@ pub struct Args {
 
     /// Whether the ore's plane may turn in space: global (default: one plane everywhere) or
     /// varying (where an anchor's own plane lies 15+ degrees from the model's and fits its
-    /// pairs 15 % better, the kriging blocks near it turn to it; the infill and the model's
-    /// extent keep the global frame). The anchors (the variogram map drawn again around
+    /// pairs 15 % better, the kriging blocks near it turn to it; partial: the infill and the
+    /// model's extent keep the global frame, so a turned lens is clipped to pieces between
+    /// its holes, docs/field.md). The anchors (the variogram map drawn again around
     /// points one semi-major range apart over the ore) are in the summary's local_planes
     /// either way, so a run shows where one plane does not fit. Not drawn when the
     /// orientation is given or found by cross-validation.
