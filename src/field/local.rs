@@ -1,6 +1,6 @@
 //! Orientations that vary in space: the variogram map drawn around anchors spread over
-//! the ore, and each kriging block's anisotropy turned to the planes of the anchors near
-//! it.
+//! the ore, and (with `--orientation-field varying`) each kriging block's anisotropy
+//! turned to the planes of the anchors near it.
 //!
 //! A field of lenses does not share one plane: on Tom Zone the map's plane over all the
 //! ore (dip 68 toward 246) is the best plane of the south-western half, while around the
@@ -8,10 +8,12 @@
 //! *Orientations that vary in space*). Each anchor pairs only the ore samples within
 //! [`RADIUS_SEMI`] semi-major ranges of it; its own best plane is used where it beats the
 //! global plane on those pairs by more than [`LOCAL_MARGIN`] and lies more than
-//! [`MIN_TURN_DEGREES`] from it, and the global plane otherwise. A block's plane is the principal plane of the anchors' normals weighted by a
-//! Gaussian of their distance (sign-free: the average of `n n^T`), with the global plane
-//! as a weak prior, so the frame turns smoothly from anchor to anchor and returns to the
-//! global one away from them.
+//! [`MIN_TURN_DEGREES`] from it, and the global plane otherwise. A block's plane is the
+//! principal plane of the anchors' normals weighted by a Gaussian of their distance
+//! (sign-free: the average of `n n^T`), with the global plane as a weak prior, so the
+//! frame turns smoothly from anchor to anchor and returns to the global one away from
+//! them. The infill lattice and the model's extent keep the global frame (why the option
+//! is partial: docs/field.md).
 //!
 //! Invariant: where every anchor keeps the global plane, or a block's plane is within
 //! [`SAME_DEGREES`] of it, the block uses the global frame exactly, so a single lens's
