@@ -106,7 +106,7 @@ impl Problem {
     }
 
     /// The answer for a job that failed: the one mapping from failure kind to status
-    /// ([`failure_status`]). A failure the user can fix says why and names the input where
+    /// (`failure_status`). A failure the user can fix says why and names the input where
     /// known; an internal one says only that it happened and which job it was (the cause
     /// is in the worker's log under that job id).
     pub fn job_failed(job: &JobRecord) -> Self {

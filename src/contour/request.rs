@@ -240,7 +240,7 @@ pub struct ContourRequest {
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum Simplify {
     /// A model's surfaces within a share of its finest infill step
-    /// ([`super::model::SIMPLIFY_SHARE`]); the linear interpolant's and grids' not at all.
+    /// (`model::SIMPLIFY_SHARE`); the linear interpolant's and grids' not at all.
     #[default]
     Default,
     /// Every triangle as extracted.

@@ -61,7 +61,7 @@ pub struct DensitySummary {
     /// Samples with a grade but no density in the column: their vertices take
     /// `filled_with`.
     pub missing_samples: usize,
-    /// The holes of those samples (at most [`NAMED_HOLES`] named).
+    /// The holes of those samples (at most `NAMED_HOLES` named).
     pub missing_holes: Vec<String>,
     /// The mean density of the samples that have one, given to the others, t/m3.
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -34,7 +34,7 @@ pub enum Plot3dVariable {
     VelocityY,
     VelocityZ,
     VelocityMagnitude,
-    /// `(gamma - 1) (e - |m|^2 / (2 rho))`, `gamma` = [`GAMMA`].
+    /// `(gamma - 1) (e - |m|^2 / (2 rho))`, `gamma` = `GAMMA`.
     Pressure,
     /// `|v| / sqrt(gamma p / rho)`.
     Mach,
