@@ -401,3 +401,13 @@ def test_pictures_reduce_the_palette_and_keep_the_size(tmp_path):
     with Image.open(path) as im:
         assert im.mode == "P" and im.size == (64, 64)
         assert len(im.getcolors()) <= 16
+
+
+def test_vein_model_intercepts_bridge_at_most_two_waste_samples():
+    from vein_model import intercepts
+
+    v = np.array([0, 6, 7, 1, 1, 8, 0, 0, 0, 9, 2, 5], float)
+    # 6 7 | two waste | 8 is one run; three waste end it; 9 and 5 bridge one waste.
+    assert intercepts(v) == [(1, 5), (9, 11)]
+    assert intercepts(np.zeros(5)) == []
+    assert intercepts(np.array([5.0])) == [(0, 0)]
