@@ -6,8 +6,9 @@
 //! from the intercepts at the lowest level, the plane checked by a variogram map, and the
 //! map drawn again around anchors where the plane may turn: [`local`]), builds a
 //! [`kriging::BlockKriging`] in the anisotropy ellipsoid's range units, and
-//! [`infill::infill`] places the points where the field is evaluated. `contour` tetrahedralizes the samples with those points and runs
-//! DMT unchanged on the field's values (docs/field.md).
+//! [`infill::infill`] places the points where the field is evaluated. `contour`
+//! tetrahedralizes the samples with those points and runs DMT unchanged on the field's
+//! values (docs/field.md).
 //!
 //! This is a geometry room: no async runtime, no web framework, no database.
 
