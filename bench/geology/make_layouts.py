@@ -2,6 +2,7 @@
 
 Usage:
   python bench/geology/make_layouts.py --out DIR [--seeds 1 2 3 4 5] [--layouts lens,two_lens,...]
+                                       [--noise-free]
   python bench/geology/make_layouts.py inside DIR/lens/seed1 X Y Z [X Y Z ...]
 
 Each layout/seed directory holds collars.csv (hole_id,x,y,z), surveys.csv
@@ -15,6 +16,10 @@ and truth.json (truth.py: the lenses, the exact volume and area, the noise). Lay
   two_dips        two lenses side by side along strike, the second turned 40-90 degrees in
                   dip direction and 20-35 in dip (a field whose orientation varies), ~33k assays
   big             one lens 1.5 times larger drilled 25 m x 20 m: ~300k assays
+
+With --noise-free the assays are the true grades at their midpoints (the same holes, lenses
+and flags' threshold, no noise): what the assays' noise costs a model is its score on the
+noisy layout against its score on this one.
 
 Invariant: a layout is a pure function of (layout, seed): the same bytes on every run.
 """
@@ -198,8 +203,9 @@ def drill(rng, truth: Truth, holes, prefix: str):
     return collars, surveys, intervals, np.vstack(positions)
 
 
-def build(layout: str, seed: int):
-    """(truth, collars, surveys, intervals, noisy grades) of a grade layout."""
+def build(layout: str, seed: int, noise_free: bool = False):
+    """(truth, collars, surveys, intervals, noisy grades) of a grade layout; with
+    `noise_free`, the grades are the true ones (same holes and lenses)."""
     spec = LAYOUTS[layout]
     rng = np.random.default_rng([seed, LAYOUT_INDEX[layout]])
     lenses, background = make_lenses(rng, spec["lenses"], spec["scale"], spec.get("side", False))
@@ -231,13 +237,16 @@ def build(layout: str, seed: int):
     truth.noise_sigma_ln = sigma
     z = np.random.default_rng([seed, LAYOUT_INDEX[layout], 3]).standard_normal(len(true))
     noisy = true * np.exp(sigma * z - 0.5 * sigma * sigma)
+    if noise_free:
+        truth.noise_sigma_ln, truth.nugget_share = 0.0, 0.0
+        return truth, collars, surveys, intervals, true
     return truth, collars, surveys, intervals, noisy
 
 
-def write_layout(out: Path, layout: str, seed: int) -> dict:
+def write_layout(out: Path, layout: str, seed: int, noise_free: bool = False) -> dict:
     spec = LAYOUTS[layout]
     base = spec.get("base", layout)
-    truth, collars, surveys, intervals, noisy = build(base, seed)
+    truth, collars, surveys, intervals, noisy = build(base, seed, noise_free)
     directory = out / layout / f"seed{seed}"
     if spec["flag"]:
         truth.layout, truth.flag, truth.variable, truth.threshold = layout, True, "zn_ge5", 0.5
@@ -269,6 +278,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5])
     ap.add_argument("--layouts", default=",".join(MAIN_LAYOUTS),
                     help=f"comma-separated among {', '.join(LAYOUTS)} (default: the main ones)")
+    ap.add_argument("--noise-free", action="store_true",
+                    help="assays are the true grades (no noise): the same layouts otherwise")
     args = ap.parse_args(argv)
     names = [n for n in args.layouts.split(",") if n]
     for n in names:
@@ -276,7 +287,7 @@ def main(argv=None) -> int:
             ap.error(f"unknown layout '{n}' (known: {', '.join(LAYOUTS)})")
     for n in names:
         for seed in args.seeds:
-            info = write_layout(args.out, n, seed)
+            info = write_layout(args.out, n, seed, args.noise_free)
             print(f"{info['layout']:>14} seed {seed}: {info['holes']} holes, {info['assays']} assays, "
                   f"{100 * info['ore_share']:.1f}% >= 5, noise sigma_ln {info['sigma']:.3f}, "
                   f"true volume {info['volume']:.0f} m3 -> {info['dir']}")

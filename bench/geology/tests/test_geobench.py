@@ -143,6 +143,22 @@ def test_layouts_are_reproducible_and_read_back(tmp_path):
     assert np.array_equal(fs.values[fs.known] == 1, np.round(s.values[k], 4) >= 5.0)
 
 
+def test_noise_free_layouts_hold_the_true_grades_of_the_same_holes(tmp_path):
+    a = make_layouts.write_layout(tmp_path / "noisy", "lens", 2)
+    b = make_layouts.write_layout(tmp_path / "clean", "lens", 2, noise_free=True)
+    for name in ("collars.csv", "surveys.csv"):
+        assert (Path(a["dir"]) / name).read_bytes() == (Path(b["dir"]) / name).read_bytes()
+    d = Path(b["dir"])
+    t = Truth.load(d)
+    assert t.noise_sigma_ln == 0.0 and t.nugget_share == 0.0
+    assert t.lenses == Truth.load(Path(a["dir"])).lenses
+    s = read_tables(d / "collars.csv", d / "surveys.csv", d / "assays.csv", t.variable)
+    k = s.known
+    assert k.sum() == a["assays"] == b["assays"]
+    # Written with four significant digits.
+    assert np.abs(s.values[k] / t.grade(s.positions[k]) - 1.0).max() < 1e-3
+
+
 def test_two_lenses_are_disjoint():
     truth, *_ = make_layouts.build("two_lens", 2)
     rng = np.random.default_rng(0)
