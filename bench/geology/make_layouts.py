@@ -204,8 +204,8 @@ def drill(rng, truth: Truth, holes, prefix: str):
 
 
 def build(layout: str, seed: int, noise_free: bool = False):
-    """(truth, collars, surveys, intervals, noisy grades) of a grade layout; with
-    `noise_free`, the grades are the true ones (same holes and lenses)."""
+    """(truth, collars, surveys, intervals, assayed grades) of a grade layout: the true
+    grades times noise, or with `noise_free` the true grades (same holes and lenses)."""
     spec = LAYOUTS[layout]
     rng = np.random.default_rng([seed, LAYOUT_INDEX[layout]])
     lenses, background = make_lenses(rng, spec["lenses"], spec["scale"], spec.get("side", False))
@@ -246,17 +246,17 @@ def build(layout: str, seed: int, noise_free: bool = False):
 def write_layout(out: Path, layout: str, seed: int, noise_free: bool = False) -> dict:
     spec = LAYOUTS[layout]
     base = spec.get("base", layout)
-    truth, collars, surveys, intervals, noisy = build(base, seed, noise_free)
+    truth, collars, surveys, intervals, assayed = build(base, seed, noise_free)
     directory = out / layout / f"seed{seed}"
     if spec["flag"]:
         truth.layout, truth.flag, truth.variable, truth.threshold = layout, True, "zn_ge5", 0.5
-        values = [int(v >= GRADE_THRESHOLD) for v in noisy]
+        values = [int(v >= GRADE_THRESHOLD) for v in assayed]
     else:
-        values = [float(v) for v in noisy]
+        values = [float(v) for v in assayed]
     assays = [(h, a, b, v) for (h, a, b), v in zip(intervals, values)]
     write_tables(directory, collars, surveys, assays, truth.variable)
     truth.save(directory / "truth.json")
-    ore = float(np.mean(np.asarray(noisy) >= GRADE_THRESHOLD))
+    ore = float(np.mean(np.asarray(assayed) >= GRADE_THRESHOLD))
     return dict(layout=layout, seed=seed, holes=len(collars), assays=len(assays),
                 ore_share=ore, sigma=truth.noise_sigma_ln, volume=truth.volume, dir=str(directory))
 
