@@ -556,6 +556,22 @@ fn model_options_are_refused_with_the_linear_interpolant_and_named() {
         ..ContourOptions::default()
     };
     assert_eq!(linear.check().unwrap_err().field, "shape_from");
+    let near_field = Some("max_samples_near");
+    for (near, field) in [(3, near_field), (513, near_field), (192, None)] {
+        let options = ContourOptions {
+            thresholds: vec![CUT],
+            max_samples_near: Some(near),
+            ..ContourOptions::default()
+        };
+        assert_eq!(options.check().err().map(|e| e.field), field, "{near}");
+    }
+    let near_linear = ContourOptions {
+        thresholds: vec![CUT],
+        interpolant: Some("linear".into()),
+        max_samples_near: Some(192),
+        ..ContourOptions::default()
+    };
+    assert_eq!(near_linear.check().unwrap_err().field, "max_samples_near");
 }
 
 /// Five parallel slabs 6 m thick dipping 70 degrees east, side by side 100 m apart at the

@@ -103,6 +103,7 @@ pub struct MultipartInputs {
     /// Finest infill step along the major axis.
     resolution: Option<f64>,
     max_samples: Option<u32>,
+    max_samples_near: Option<u32>,
     max_per_hole: Option<u32>,
     /// Draw the drill-hole traces in the GLB: true (default) or false.
     well_traces: Option<bool>,
@@ -500,7 +501,8 @@ async fn inputs_from_multipart(
                 })?;
                 inputs.insert(name, Value::from(value));
             }
-            "relax" | "lattice" | "spheroidal_order" | "max_samples" | "max_per_hole" => {
+            "relax" | "lattice" | "spheroidal_order" | "max_samples" | "max_samples_near"
+            | "max_per_hole" => {
                 let value: u32 = text.trim().parse().map_err(|_| {
                     Problem::invalid_input(
                         &name,

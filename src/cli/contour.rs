@@ -200,6 +200,12 @@ pub struct Args {
     #[arg(long, value_name = "N", help_heading = MODEL)]
     pub max_samples: Option<u32>,
 
+    /// Most samples in a block whose nearest --max-samples hold values on both sides of a
+    /// threshold, where the surface is: more there average more of the assays' noise
+    /// (default 192; at or below --max-samples turns it off).
+    #[arg(long, value_name = "N", help_heading = MODEL)]
+    pub max_samples_near: Option<u32>,
+
     /// Most samples of one hole in one kriging block (default 12).
     #[arg(long, value_name = "N", help_heading = MODEL)]
     pub max_per_hole: Option<u32>,
@@ -276,6 +282,7 @@ impl Args {
             top_cut: self.top_cut,
             resolution: self.resolution,
             max_samples: self.max_samples,
+            max_samples_near: self.max_samples_near,
             max_per_hole: self.max_per_hole,
             simplify: self.simplify,
         }

@@ -379,6 +379,8 @@ pub struct ContourOptions {
     pub resolution: Option<f64>,
     /// Most samples in one kriging block.
     pub max_samples: Option<u32>,
+    /// Most samples in a block whose nearest `max_samples` straddle a threshold.
+    pub max_samples_near: Option<u32>,
     /// Most samples of one hole in one kriging block.
     pub max_per_hole: Option<u32>,
     /// Simplification tolerance, input units: 0 keeps every triangle; absent, a model's
@@ -530,6 +532,7 @@ impl ContourOptions {
             ("top_cut", self.top_cut.is_some()),
             ("resolution", self.resolution.is_some()),
             ("max_samples", self.max_samples.is_some()),
+            ("max_samples_near", self.max_samples_near.is_some()),
             ("max_per_hole", self.max_per_hole.is_some()),
         ]
         .into_iter()
@@ -626,6 +629,15 @@ impl ContourOptions {
                 return Err(OptionError::new("max_samples", "must be from 4 to 512"));
             }
             neighbourhood.max_samples = m as usize;
+        }
+        if let Some(m) = self.max_samples_near {
+            if !(4..=512).contains(&m) {
+                return Err(OptionError::new(
+                    "max_samples_near",
+                    "must be from 4 to 512",
+                ));
+            }
+            neighbourhood.max_samples_near = m as usize;
         }
         if let Some(m) = self.max_per_hole {
             if m == 0 {

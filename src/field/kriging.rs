@@ -43,6 +43,10 @@ pub struct Neighbourhood {
     pub max_per_hole: usize,
     /// Samples farther than this from the block's centre (range units) are never used.
     pub radius: f64,
+    /// At most this many samples per block whose nearest `max_samples` straddle a level
+    /// (hold values on both sides of it): where the surface is, more samples average more
+    /// of the assays' noise. Not above `max_samples` turns it off.
+    pub max_samples_near: usize,
 }
 
 impl Default for Neighbourhood {
@@ -51,6 +55,7 @@ impl Default for Neighbourhood {
             max_samples: 96,
             max_per_hole: 12,
             radius: 2.0,
+            max_samples_near: 192,
         }
     }
 }
@@ -217,6 +222,9 @@ pub struct BlockKriging {
     neighbourhood: Neighbourhood,
     grid: CellGrid,
     frames: Option<LocalFrames>,
+    /// The (transformed) levels the surfaces are drawn at; blocks that straddle one take
+    /// the larger neighbourhood.
+    levels: Vec<f64>,
     blocks: Mutex<CellMap<IVec3, Option<Block>>>,
 }
 
@@ -242,6 +250,7 @@ impl BlockKriging {
             neighbourhood,
             grid,
             frames: None,
+            levels: Vec::new(),
             blocks: Mutex::new(CellMap::default()),
         }
     }
@@ -250,6 +259,13 @@ impl BlockKriging {
     /// is solved).
     pub fn with_frames(mut self, frames: Option<LocalFrames>) -> Self {
         self.frames = frames;
+        self
+    }
+
+    /// The same model with the larger neighbourhood where a block's samples straddle one
+    /// of `levels` (transformed).
+    pub fn with_levels(mut self, levels: &[f64]) -> Self {
+        self.levels = levels.to_vec();
         self
     }
 
@@ -375,7 +391,7 @@ impl BlockKriging {
     /// The samples of the block at lattice node `key`: nearest to its centre first (in the
     /// block's `frame` when it has one), at most `max_per_hole` per hole, within the
     /// radius.
-    fn neighbours(&self, key: IVec3, frame: Option<DMat3>) -> Vec<u32> {
+    fn neighbours(&self, key: IVec3, frame: Option<DMat3>, max_samples: usize) -> Vec<u32> {
         let centre = key.as_dvec3() * BLOCK_SPACING;
         let n = self.neighbourhood;
         // The frame's unit ball reaches this far in the global units.
@@ -384,7 +400,7 @@ impl BlockKriging {
             principal_axes(inverse.transpose() * inverse).0[0].sqrt()
         });
         let max_span = (n.radius * stretch / BLOCK_SPACING).ceil() as i32;
-        let enough = if frame.is_some() { 4 } else { 2 } * n.max_samples;
+        let enough = if frame.is_some() { 4 } else { 2 } * max_samples;
         let mut candidates = Vec::new();
         // Widen the search ring by ring until it holds enough samples.
         let mut span = 1;
@@ -411,7 +427,7 @@ impl BlockKriging {
             .collect();
         ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let mut per_hole: CellMap<u32, usize> = CellMap::default();
-        let mut chosen = Vec::with_capacity(n.max_samples);
+        let mut chosen = Vec::with_capacity(max_samples);
         for (_, i) in ranked {
             let count = per_hole.entry(self.holes[i as usize]).or_default();
             if *count >= n.max_per_hole {
@@ -419,11 +435,22 @@ impl BlockKriging {
             }
             *count += 1;
             chosen.push(i);
-            if chosen.len() == n.max_samples {
+            if chosen.len() == max_samples {
                 break;
             }
         }
         chosen
+    }
+
+    /// `true` when the samples `chosen` hold values on both sides of some level.
+    fn straddles(&self, chosen: &[u32]) -> bool {
+        let (lo, hi) = chosen
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &i| {
+                let v = self.values[i as usize];
+                (lo.min(v), hi.max(v))
+            });
+        self.levels.iter().any(|&l| lo < l && l <= hi)
     }
 
     /// Solves the ordinary-kriging system of one block in dual form.
@@ -432,7 +459,11 @@ impl BlockKriging {
             .frames
             .as_ref()
             .and_then(|f| f.map_at(key.as_dvec3() * BLOCK_SPACING));
-        let chosen = self.neighbours(key, frame);
+        let n = self.neighbourhood;
+        let mut chosen = self.neighbours(key, frame, n.max_samples);
+        if n.max_samples_near > n.max_samples && self.straddles(&chosen) {
+            chosen = self.neighbours(key, frame, n.max_samples_near);
+        }
         if chosen.is_empty() {
             return None;
         }
@@ -589,6 +620,66 @@ mod tests {
             }
         }
         assert!(checked[0] > 1000 && checked[1] > 1000, "{checked:?}");
+    }
+
+    #[test]
+    fn blocks_whose_samples_straddle_a_level_take_the_larger_neighbourhood() {
+        // Vertical holes on a 7x7 plan; ore (1) west of x = 0, waste (0) east of it.
+        let mut points = Vec::new();
+        let mut holes = Vec::new();
+        for h in 0..49 {
+            let (x, y) = (f64::from(h % 7) - 3.05, f64::from(h / 7) - 3.0);
+            for k in 0..30 {
+                points.push(DVec3::new(x, y, f64::from(k) * 0.1 - 1.5));
+                holes.push(h as u32);
+            }
+        }
+        let values: Vec<f64> = points.iter().map(|p| f64::from(p.x < 0.0)).collect();
+        let neighbourhood = Neighbourhood {
+            max_samples: 16,
+            max_per_hole: 4,
+            radius: 2.0,
+            max_samples_near: 48,
+        };
+        let queries: Vec<DVec3> = (-6..=6)
+            .flat_map(|i| (-2..=2).map(move |j| DVec3::new(f64::from(i) * 0.5, f64::from(j), 0.0)))
+            .collect();
+        let sizes = |levels: &[f64]| {
+            let model = BlockKriging::new(
+                Spheroidal::new(3).unwrap(),
+                0.1,
+                points.clone(),
+                values.clone(),
+                holes.clone(),
+                neighbourhood,
+            )
+            .with_levels(levels);
+            model.evaluate(&queries, &never).unwrap();
+            let blocks = model.blocks.lock().unwrap();
+            let mut sizes: Vec<(i32, usize)> = blocks
+                .iter()
+                .filter_map(|(k, b)| b.as_ref().map(|b| (k.x, b.points.len())))
+                .collect();
+            sizes.sort_unstable();
+            sizes
+        };
+        let near = sizes(&[0.5]);
+        // The blocks on the contact see both sides; one centred 2 ranges or more from it
+        // sees one side only.
+        for (x, n) in &near {
+            let centre = f64::from(*x) * BLOCK_SPACING;
+            if centre.abs() >= 2.0 {
+                assert!(*n <= 16, "block at x = {centre}: {n}");
+            }
+            if *x == 0 {
+                // More than the base's 16 (up to 48, as many as lie within the radius).
+                assert!(*n > 16 && *n <= 48, "block at x = {centre}: {n}");
+            }
+        }
+        // No level, or a level no sample straddles: the base neighbourhood everywhere.
+        for levels in [&[][..], &[2.0][..]] {
+            assert!(sizes(levels).iter().all(|(_, n)| *n <= 16), "{levels:?}");
+        }
     }
 
     #[test]

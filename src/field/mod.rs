@@ -346,6 +346,7 @@ impl Field {
         );
         let ellipsoid = Ellipsoid::new(orientation, ranges);
         let samples_unit: Vec<DVec3> = t.points.iter().map(|p| ellipsoid.to_unit(*p)).collect();
+        let model_levels: Vec<f64> = levels.iter().map(|&l| transform.apply(l)).collect();
         let frames = local_planes
             .as_ref()
             .filter(|_| options.orientation_field == OrientationField::Varying)
@@ -358,7 +359,8 @@ impl Field {
             t.holes.clone(),
             options.neighbourhood,
         )
-        .with_frames(frames);
+        .with_frames(frames)
+        .with_levels(&model_levels);
         let params = FieldParams {
             kernel: "spheroidal".into(),
             order: kernel.order(),

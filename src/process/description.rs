@@ -153,6 +153,10 @@ const TITLES: &[(&str, &str)] = &[
     ("top_cut", "Top-cut"),
     ("resolution", "Infill resolution"),
     ("max_samples", "Samples per kriging block"),
+    (
+        "max_samples_near",
+        "Samples per kriging block near a threshold",
+    ),
     ("max_per_hole", "Samples per hole per block"),
     ("well_traces", "Drill-hole traces"),
     ("well_samples", "Samples"),

@@ -162,6 +162,10 @@ pub struct ProcessInputs {
     /// Most samples in one kriging block (4 to 512; default 96).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_samples: Option<u32>,
+    /// Most samples in a block whose nearest `max_samples` straddle a threshold, where the
+    /// surface is (4 to 512; default 192; at or below `max_samples` turns it off).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_samples_near: Option<u32>,
     /// Most samples of one hole in one kriging block (default 12).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_per_hole: Option<u32>,
@@ -332,6 +336,7 @@ impl ProcessInputs {
             top_cut: self.top_cut,
             resolution: self.resolution,
             max_samples: self.max_samples,
+            max_samples_near: self.max_samples_near,
             max_per_hole: self.max_per_hole,
             simplify: self.simplify,
         }
