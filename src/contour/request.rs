@@ -624,21 +624,20 @@ impl ContourOptions {
         };
         let resolution = positive("resolution", self.resolution)?;
         let mut neighbourhood = Neighbourhood::default();
-        if let Some(m) = self.max_samples {
-            if !(4..=512).contains(&m) {
-                return Err(OptionError::new("max_samples", "must be from 4 to 512"));
+        let block_size = |name: &'static str, v: Option<u32>, default: usize| match v {
+            Some(m) if !(4..=512).contains(&m) => {
+                Err(OptionError::new(name, "must be from 4 to 512"))
             }
-            neighbourhood.max_samples = m as usize;
-        }
-        if let Some(m) = self.max_samples_near {
-            if !(4..=512).contains(&m) {
-                return Err(OptionError::new(
-                    "max_samples_near",
-                    "must be from 4 to 512",
-                ));
-            }
-            neighbourhood.max_samples_near = m as usize;
-        }
+            Some(m) => Ok(m as usize),
+            None => Ok(default),
+        };
+        neighbourhood.max_samples =
+            block_size("max_samples", self.max_samples, neighbourhood.max_samples)?;
+        neighbourhood.max_samples_near = block_size(
+            "max_samples_near",
+            self.max_samples_near,
+            neighbourhood.max_samples_near,
+        )?;
         if let Some(m) = self.max_per_hole {
             if m == 0 {
                 return Err(OptionError::new("max_per_hole", "must be at least 1"));

@@ -281,7 +281,7 @@ pub fn infill(
                 None => return false,
             }
         }
-        levels.iter().any(|&l| lo < l && l <= hi)
+        super::straddles(levels, lo, hi)
     };
     let mut size = scale;
     for level in 0..refinements {

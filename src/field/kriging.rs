@@ -450,7 +450,7 @@ impl BlockKriging {
                 let v = self.values[i as usize];
                 (lo.min(v), hi.max(v))
             });
-        self.levels.iter().any(|&l| lo < l && l <= hi)
+        super::straddles(&self.levels, lo, hi)
     }
 
     /// Solves the ordinary-kriging system of one block in dual form.

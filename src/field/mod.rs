@@ -434,6 +434,12 @@ impl Field {
     }
 }
 
+/// `true` when values from `lo` to `hi` lie on both sides of one of `levels`: some below
+/// it and some at or above it (a value equal to a level is marked, as DMT marks it).
+pub(crate) fn straddles(levels: &[f64], lo: f64, hi: f64) -> bool {
+    levels.iter().any(|&l| lo < l && l <= hi)
+}
+
 /// The ore's geometry from the intercepts, in the plane of their principal axes unless
 /// the variogram map finds a plane of clearly better continuity (by more than
 /// [`estimate::MAP_MARGIN`]): then in the map's plane. With an orientation `given` by
